@@ -1,0 +1,106 @@
+//! Model readers and writers (OBJ+MTL, glTF/GLB, PLY), chosen by extension or magic bytes.
+//!
+//! Every reader keeps faces in input order, fan-triangulates polygons in place, validates every
+//! index before returning, and reports malformed input as an [`IoError`] naming the file and the
+//! line or byte offset. Every writer is atomic and refuses to overwrite a protected (input) path.
+
+pub mod gltf;
+pub mod obj;
+pub mod ply;
+
+use std::path::{Path, PathBuf};
+
+use crate::model::{Model, ModelFormat};
+
+/// Errors of model reading and writing.
+#[derive(Debug, thiserror::Error)]
+pub enum IoError {
+    /// The operating system refused an operation on a file.
+    #[error("{path}: {source}")]
+    File { path: PathBuf, source: std::io::Error },
+    /// A text format is malformed at a known line (1-based).
+    #[error("{path}:{line}: {msg}")]
+    Line { path: PathBuf, line: u64, msg: String },
+    /// A binary format is malformed at a known byte offset.
+    #[error("{path}: at byte {offset}: {msg}")]
+    Byte { path: PathBuf, offset: u64, msg: String },
+    /// The file is malformed or inconsistent, with no finer position.
+    #[error("{path}: {msg}")]
+    Invalid { path: PathBuf, msg: String },
+    /// The file is valid but uses something scanatlas cannot handle (named in `msg`).
+    #[error("{path}: unsupported: {msg}")]
+    Unsupported { path: PathBuf, msg: String },
+    /// The extension and the content name no format scanatlas knows.
+    #[error("{path}: unknown model format (expected .obj, .gltf, .glb or .ply)")]
+    UnknownFormat { path: PathBuf },
+}
+
+impl IoError {
+    /// Wraps an OS error with the path it concerns.
+    pub fn file(path: &Path, source: std::io::Error) -> Self {
+        Self::File { path: path.to_path_buf(), source }
+    }
+    pub fn line(path: &Path, line: u64, msg: impl Into<String>) -> Self {
+        Self::Line { path: path.to_path_buf(), line, msg: msg.into() }
+    }
+    pub fn byte(path: &Path, offset: u64, msg: impl Into<String>) -> Self {
+        Self::Byte { path: path.to_path_buf(), offset, msg: msg.into() }
+    }
+    pub fn invalid(path: &Path, msg: impl Into<String>) -> Self {
+        Self::Invalid { path: path.to_path_buf(), msg: msg.into() }
+    }
+    pub fn unsupported(path: &Path, msg: impl Into<String>) -> Self {
+        Self::Unsupported { path: path.to_path_buf(), msg: msg.into() }
+    }
+}
+
+/// Options shared by the writers.
+#[derive(Clone, Debug, Default)]
+pub struct WriteOptions {
+    /// Paths that must never be overwritten (the inputs of the run).
+    pub protect: Vec<PathBuf>,
+}
+
+/// The format of a file to read: by magic bytes first (GLB, PLY), then by extension.
+pub fn detect_format(path: &Path) -> Result<ModelFormat, IoError> {
+    use std::io::Read;
+    let mut head = [0u8; 4];
+    let mut f = std::fs::File::open(path).map_err(|e| IoError::file(path, e))?;
+    let n = f.read(&mut head).map_err(|e| IoError::file(path, e))?;
+    if n == 4 && &head == b"glTF" {
+        return Ok(ModelFormat::Glb);
+    }
+    if n >= 3 && &head[..3] == b"ply" {
+        return Ok(ModelFormat::Ply);
+    }
+    ModelFormat::from_path(path).ok_or_else(|| IoError::UnknownFormat { path: path.to_path_buf() })
+}
+
+/// Reads a model of any supported format. Sheet sizes are left unknown (`None`); the texture
+/// layer probes them from the image headers.
+pub fn read_model(path: &Path) -> Result<Model, IoError> {
+    let model = match detect_format(path)? {
+        ModelFormat::Obj => obj::read(path)?,
+        ModelFormat::Gltf | ModelFormat::Glb => gltf::read(path)?,
+        ModelFormat::Ply => ply::read(path)?,
+    };
+    model.validate_indices().map_err(|msg| IoError::invalid(path, msg))?;
+    Ok(model)
+}
+
+/// Writes a model in the format its extension names, atomically. The input file of the model
+/// (`model.path`) is always protected besides `opts.protect`.
+pub fn write_model(model: &Model, path: &Path, opts: &WriteOptions) -> Result<(), IoError> {
+    let format = ModelFormat::from_path(path)
+        .ok_or_else(|| IoError::UnknownFormat { path: path.to_path_buf() })?;
+    let mut opts = opts.clone();
+    if !model.path.as_os_str().is_empty() {
+        opts.protect.push(model.path.clone());
+    }
+    match format {
+        ModelFormat::Obj => obj::write(model, path, &opts),
+        ModelFormat::Gltf => gltf::write(model, path, &opts, false),
+        ModelFormat::Glb => gltf::write(model, path, &opts, true),
+        ModelFormat::Ply => ply::write(model, path, &opts),
+    }
+}

@@ -1,0 +1,16 @@
+//! scanatlas-core: the data model, model and texture I/O, tiled textures, metrics and synthetic data
+//! that every scanatlas pipeline stands on.
+//!
+//! Architecture invariants (see `ARCHITECTURE.md` §3): library code never prints, never panics on
+//! user data, never reorders or drops input faces, and never holds a whole texture sheet in RAM.
+
+pub mod atomic;
+pub mod index;
+pub mod io;
+pub mod metrics;
+pub mod model;
+pub mod synth;
+pub mod texture;
+
+pub use index::{FaceId, MaterialId, NormalId, SheetId, UvId, VertexId};
+pub use model::{Face, ImageSource, Material, Model, ModelFormat, Sheet};

@@ -1,0 +1,1 @@
+//! The figures of ARCHITECTURE §9, with the same definitions as `shared/tools/evaluate.py`.

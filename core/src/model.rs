@@ -1,0 +1,197 @@
+//! The in-memory textured mesh every pipeline works on: positions, wedge UVs, faces in input
+//! order, materials and texture sheets, plus what each file format needs to be written back
+//! faithfully.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use crate::index::{FaceId, MaterialId, NormalId, SheetId, UvId, VertexId};
+
+/// The file formats scanatlas reads and writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ModelFormat {
+    Obj,
+    Gltf,
+    Glb,
+    Ply,
+}
+
+impl ModelFormat {
+    /// The format a path's extension names (case-insensitive), if any.
+    pub fn from_path(path: &std::path::Path) -> Option<Self> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        match ext.as_str() {
+            "obj" => Some(Self::Obj),
+            "gltf" => Some(Self::Gltf),
+            "glb" => Some(Self::Glb),
+            "ply" => Some(Self::Ply),
+            _ => None,
+        }
+    }
+
+    /// The canonical lowercase extension.
+    pub fn extension(self) -> &'static str {
+        match self {
+            Self::Obj => "obj",
+            Self::Gltf => "gltf",
+            Self::Glb => "glb",
+            Self::Ply => "ply",
+        }
+    }
+}
+
+/// One triangle. Corners are never reordered: corner `k` of `v`, `uv` and `n` belong together.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Face {
+    /// Position indices.
+    pub v: [VertexId; 3],
+    /// Wedge UV indices; `None` for a face without texture coordinates (kept, never merged).
+    pub uv: Option<[UvId; 3]>,
+    /// Normal indices, when the file had them.
+    pub n: Option<[NormalId; 3]>,
+    /// Material; its sheet (if any) is the face's texture sheet.
+    pub material: Option<MaterialId>,
+}
+
+/// Where a texture sheet's encoded bytes live.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ImageSource {
+    /// An image file on disk (absolute, or relative to the current directory).
+    File(PathBuf),
+    /// Bytes embedded in the model (glTF data URI or GLB buffer view).
+    Embedded {
+        /// A name for messages and for the file written when the image must be extracted.
+        name: String,
+        /// The declared MIME type (`image/png`, `image/jpeg`, ...), possibly empty.
+        mime: String,
+        bytes: Arc<Vec<u8>>,
+    },
+}
+
+impl ImageSource {
+    /// A short human description (the path or the embedded name) for messages.
+    pub fn describe(&self) -> String {
+        match self {
+            Self::File(p) => p.display().to_string(),
+            Self::Embedded { name, .. } => format!("embedded image {name}"),
+        }
+    }
+}
+
+/// A texture sheet: one image that UVs index into.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sheet {
+    pub image: ImageSource,
+    /// Width and height in pixels, once known (from the image header).
+    pub size: Option<(u32, u32)>,
+}
+
+/// A material. Several materials may share one sheet (same `map_Kd`).
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct Material {
+    pub name: String,
+    pub sheet: Option<SheetId>,
+    /// Format-specific statements to write back unchanged (e.g. MTL lines other than
+    /// `newmtl` and `map_Kd`).
+    pub extra: Vec<String>,
+}
+
+/// What a reader remembers of the file beyond the mesh, so a writer of the same format can keep it.
+#[derive(Clone, Debug, Default)]
+pub enum Origin {
+    #[default]
+    None,
+    Obj(crate::io::obj::ObjExtras),
+    Gltf(Box<crate::io::gltf::GltfScene>),
+    Ply(crate::io::ply::PlyExtras),
+}
+
+/// A textured triangle mesh.
+#[derive(Clone, Debug, Default)]
+pub struct Model {
+    /// The file it was read from (empty for generated models).
+    pub path: PathBuf,
+    /// Positions as stored in the file (f64: scans are often georeferenced).
+    pub positions: Vec<[f64; 3]>,
+    /// Wedge UVs in normalized sheet coordinates, OBJ convention (v up). Never non-finite
+    /// silently: readers keep what the file says, `metrics` reports non-finite values.
+    pub uvs: Vec<[f64; 2]>,
+    pub normals: Vec<[f32; 3]>,
+    /// Triangles in input order (polygons fan-triangulated in place).
+    pub faces: Vec<Face>,
+    pub materials: Vec<Material>,
+    pub sheets: Vec<Sheet>,
+    pub origin: Origin,
+    /// Non-fatal observations made while reading (e.g. "12 polygons fan-triangulated").
+    pub notes: Vec<String>,
+}
+
+impl Model {
+    /// The texture sheet of a face, if its material has one.
+    #[inline]
+    pub fn face_sheet(&self, f: FaceId) -> Option<SheetId> {
+        let m = self.faces[f.idx()].material?;
+        self.materials.get(m.idx())?.sheet
+    }
+
+    /// The three positions of a face.
+    #[inline]
+    pub fn face_positions(&self, f: FaceId) -> [[f64; 3]; 3] {
+        let v = self.faces[f.idx()].v;
+        [self.positions[v[0].idx()], self.positions[v[1].idx()], self.positions[v[2].idx()]]
+    }
+
+    /// The three normalized UVs of a face, if it has UVs.
+    #[inline]
+    pub fn face_uvs(&self, f: FaceId) -> Option<[[f64; 2]; 3]> {
+        let t = self.faces[f.idx()].uv?;
+        Some([self.uvs[t[0].idx()], self.uvs[t[1].idx()], self.uvs[t[2].idx()]])
+    }
+
+    /// Number of faces as a typed count.
+    pub fn face_count(&self) -> usize {
+        self.faces.len()
+    }
+
+    /// Iterates face ids in input order.
+    pub fn face_ids(&self) -> impl Iterator<Item = FaceId> + '_ {
+        (0..self.faces.len()).map(FaceId::from_usize)
+    }
+
+    /// Checks the internal consistency a reader must guarantee: every index in range.
+    /// Readers call this before returning, so later stages may index without checks.
+    pub fn validate_indices(&self) -> Result<(), String> {
+        let (np, nt, nn) = (self.positions.len(), self.uvs.len(), self.normals.len());
+        for (i, f) in self.faces.iter().enumerate() {
+            if f.v.iter().any(|v| v.idx() >= np) {
+                return Err(format!("face {i}: position index out of range (have {np})"));
+            }
+            if let Some(t) = f.uv {
+                if t.iter().any(|t| t.idx() >= nt) {
+                    return Err(format!(
+                        "face {i}: texture-coordinate index out of range (have {nt})"
+                    ));
+                }
+            }
+            if let Some(n) = f.n {
+                if n.iter().any(|n| n.idx() >= nn) {
+                    return Err(format!("face {i}: normal index out of range (have {nn})"));
+                }
+            }
+            if let Some(m) = f.material {
+                if m.idx() >= self.materials.len() {
+                    return Err(format!("face {i}: material index out of range"));
+                }
+            }
+        }
+        for (i, m) in self.materials.iter().enumerate() {
+            if let Some(s) = m.sheet {
+                if s.idx() >= self.sheets.len() {
+                    return Err(format!("material {i}: sheet index out of range"));
+                }
+            }
+        }
+        Ok(())
+    }
+}

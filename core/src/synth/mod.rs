@@ -1,0 +1,1 @@
+//! Synthetic photogrammetry-like models with a known true colour everywhere.

@@ -1,0 +1,238 @@
+//! `TileStore`: the pixels of one sheet in a tiled raw file in the work directory, memory-mapped,
+//! so a gigapixel sheet costs page cache, not heap.
+//!
+//! Layout: tiles of `TILE × TILE` pixels in row-major tile order; each tile is row-major pixels of
+//! `PixelFormat::bytes_per_pixel` bytes. Edge tiles are stored full size (the padding is unused),
+//! which keeps every tile at a fixed offset.
+
+use std::path::{Path, PathBuf};
+
+use memmap2::MmapMut;
+use rayon::prelude::*;
+
+use super::{PixelFormat, TextureError};
+
+/// Side of a tile in pixels.
+pub const TILE: u32 = 256;
+
+/// A sheet's pixels, tiled and memory-mapped. The backing file is deleted when the store drops.
+#[derive(Debug)]
+pub struct TileStore {
+    width: u32,
+    height: u32,
+    format: PixelFormat,
+    tiles_x: u32,
+    tiles_y: u32,
+    map: MmapMut,
+    // Kept so the file is removed when the store is dropped.
+    _file: tempfile::NamedTempFile,
+}
+
+impl TileStore {
+    /// Creates a zero-filled store of `width × height` pixels in a new file under `work_dir`.
+    pub fn create(
+        work_dir: &Path,
+        width: u32,
+        height: u32,
+        format: PixelFormat,
+    ) -> Result<Self, TextureError> {
+        let size_err = |msg: &str| TextureError::Size {
+            image: "tile store".into(),
+            width: width as u64,
+            height: height as u64,
+            msg: msg.into(),
+        };
+        if width == 0 || height == 0 {
+            return Err(size_err("zero-sized image"));
+        }
+        if !(1..=4).contains(&format.channels) {
+            return Err(size_err("channel count must be 1 to 4"));
+        }
+        let tiles_x = width.div_ceil(TILE);
+        let tiles_y = height.div_ceil(TILE);
+        let bytes = (tiles_x as u128) * (tiles_y as u128) * Self::tile_bytes_for(format) as u128;
+        if bytes > (isize::MAX as u128) / 2 {
+            return Err(size_err("too large to map"));
+        }
+        let file_err =
+            |e: std::io::Error| TextureError::File { path: work_dir.to_path_buf(), source: e };
+        let file = tempfile::Builder::new()
+            .prefix("scanatlas-tiles-")
+            .suffix(".raw")
+            .tempfile_in(work_dir)
+            .map_err(file_err)?;
+        file.as_file().set_len(bytes as u64).map_err(file_err)?;
+        // SAFETY: the file is a private temporary file that this store owns exclusively; nobody
+        // else truncates or writes it while it is mapped.
+        let map = unsafe { MmapMut::map_mut(file.as_file()) }.map_err(file_err)?;
+        Ok(Self { width, height, format, tiles_x, tiles_y, map, _file: file })
+    }
+
+    fn tile_bytes_for(format: PixelFormat) -> usize {
+        (TILE * TILE) as usize * format.bytes_per_pixel()
+    }
+
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+    pub fn format(&self) -> PixelFormat {
+        self.format
+    }
+    pub fn tiles_x(&self) -> u32 {
+        self.tiles_x
+    }
+    pub fn tiles_y(&self) -> u32 {
+        self.tiles_y
+    }
+    /// Bytes of one (full-size) tile.
+    pub fn tile_bytes(&self) -> usize {
+        Self::tile_bytes_for(self.format)
+    }
+    /// The path of the backing file.
+    pub fn backing_path(&self) -> PathBuf {
+        self._file.path().to_path_buf()
+    }
+
+    /// The pixel rectangle tile `(tx, ty)` covers, clipped to the image.
+    pub fn tile_rect(&self, tx: u32, ty: u32) -> super::raster::PixelRect {
+        let x0 = tx * TILE;
+        let y0 = ty * TILE;
+        super::raster::PixelRect::new(
+            x0,
+            y0,
+            (x0 + TILE).min(self.width),
+            (y0 + TILE).min(self.height),
+        )
+    }
+
+    #[inline]
+    fn tile_offset(&self, tx: u32, ty: u32) -> usize {
+        (ty as usize * self.tiles_x as usize + tx as usize) * self.tile_bytes()
+    }
+
+    /// The bytes of tile `(tx, ty)`.
+    pub fn tile(&self, tx: u32, ty: u32) -> &[u8] {
+        let o = self.tile_offset(tx, ty);
+        &self.map[o..o + self.tile_bytes()]
+    }
+
+    /// The bytes of tile `(tx, ty)`, writable.
+    pub fn tile_mut(&mut self, tx: u32, ty: u32) -> &mut [u8] {
+        let o = self.tile_offset(tx, ty);
+        let n = self.tile_bytes();
+        &mut self.map[o..o + n]
+    }
+
+    /// Every tile as `(tx, ty, bytes)`, writable, in parallel.
+    pub fn par_tiles_mut(&mut self) -> impl IndexedParallelIterator<Item = (u32, u32, &mut [u8])> {
+        let tiles_x = self.tiles_x;
+        let n = self.tile_bytes();
+        self.map.par_chunks_mut(n).enumerate().map(move |(k, t)| {
+            let k = k as u32;
+            (k % tiles_x, k / tiles_x, t)
+        })
+    }
+
+    /// The bytes of pixel `(x, y)` (column, row from the top).
+    #[inline]
+    pub fn pixel(&self, x: u32, y: u32) -> &[u8] {
+        let bpp = self.format.bytes_per_pixel();
+        let o = self.tile_offset(x / TILE, y / TILE)
+            + (((y % TILE) * TILE + (x % TILE)) as usize) * bpp;
+        &self.map[o..o + bpp]
+    }
+
+    /// The bytes of pixel `(x, y)`, writable.
+    #[inline]
+    pub fn pixel_mut(&mut self, x: u32, y: u32) -> &mut [u8] {
+        let bpp = self.format.bytes_per_pixel();
+        let o = self.tile_offset(x / TILE, y / TILE)
+            + (((y % TILE) * TILE + (x % TILE)) as usize) * bpp;
+        &mut self.map[o..o + bpp]
+    }
+
+    /// Copies pixel row `y` (columns `x0..x0 + out.len()/bpp`) into `out`.
+    pub fn read_row(&self, y: u32, x0: u32, out: &mut [u8]) {
+        let bpp = self.format.bytes_per_pixel();
+        let n = (out.len() / bpp) as u32;
+        let mut x = x0;
+        let mut dst = 0usize;
+        while x < x0 + n {
+            let run = (TILE - x % TILE).min(x0 + n - x);
+            let o = self.tile_offset(x / TILE, y / TILE)
+                + (((y % TILE) * TILE + (x % TILE)) as usize) * bpp;
+            let len = run as usize * bpp;
+            out[dst..dst + len].copy_from_slice(&self.map[o..o + len]);
+            dst += len;
+            x += run;
+        }
+    }
+
+    /// Writes pixel row `y` starting at column `x0` from `row`.
+    pub fn write_row(&mut self, y: u32, x0: u32, row: &[u8]) {
+        let bpp = self.format.bytes_per_pixel();
+        let n = (row.len() / bpp) as u32;
+        let mut x = x0;
+        let mut src = 0usize;
+        while x < x0 + n {
+            let run = (TILE - x % TILE).min(x0 + n - x);
+            let o = self.tile_offset(x / TILE, y / TILE)
+                + (((y % TILE) * TILE + (x % TILE)) as usize) * bpp;
+            let len = run as usize * bpp;
+            self.map[o..o + len].copy_from_slice(&row[src..src + len]);
+            src += len;
+            x += run;
+        }
+    }
+
+    /// Advises the kernel that pages already written may be flushed; keeps RSS of huge sheets in
+    /// check while decoding.
+    pub fn flush_async(&self) -> Result<(), TextureError> {
+        self.map
+            .flush_async()
+            .map_err(|e| TextureError::File { path: self.backing_path(), source: e })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::texture::SampleType;
+
+    #[test]
+    fn rows_round_trip_across_tile_boundaries() {
+        let dir = tempfile::tempdir().unwrap();
+        let (w, h) = (TILE * 2 + 17, TILE + 3);
+        let mut s = TileStore::create(dir.path(), w, h, PixelFormat::RGB8).unwrap();
+        let mut row = vec![0u8; w as usize * 3];
+        for y in 0..h {
+            for (k, b) in row.iter_mut().enumerate() {
+                *b = (k as u32 * 7 + y * 13) as u8;
+            }
+            s.write_row(y, 0, &row);
+        }
+        let mut back = vec![0u8; w as usize * 3];
+        for y in 0..h {
+            s.read_row(y, 0, &mut back);
+            for (k, b) in back.iter().enumerate() {
+                assert_eq!(*b, (k as u32 * 7 + y * 13) as u8);
+            }
+        }
+        assert_eq!(s.pixel(TILE + 1, TILE + 1)[0], (((TILE + 1) * 3 * 7 + (TILE + 1) * 13) as u8));
+        let path = s.backing_path();
+        assert!(path.exists());
+        drop(s);
+        assert!(!path.exists(), "backing file removed on drop");
+    }
+
+    #[test]
+    fn zero_size_and_bad_channels_are_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        assert!(TileStore::create(dir.path(), 0, 5, PixelFormat::RGB8).is_err());
+        let bad = PixelFormat { channels: 5, sample: SampleType::U8 };
+        assert!(TileStore::create(dir.path(), 5, 5, bad).is_err());
+    }
+}

@@ -1,0 +1,1 @@
+//! scanatlas-plugins: the built-in merge scorers, local solvers and packers, registered by name.

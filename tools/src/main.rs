@@ -1,0 +1,2 @@
+//! The `scanatlas` command line.
+fn main() {}
