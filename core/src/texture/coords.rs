@@ -59,7 +59,7 @@ mod tests {
             }
         }
         assert_eq!(pixel_of_texel([-0.1, 1.0], 7, 5), None);
-        assert_eq!(pixel_of_texel([1.0, 5.0], 7, 5), None, "v = H is above the top row");
+        assert_eq!(pixel_of_texel([1.0, 5.1], 7, 5), None, "above the top row");
         assert_eq!(pixel_of_texel([f64::NAN, 1.0], 7, 5), None);
     }
 
