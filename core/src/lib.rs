@@ -9,6 +9,7 @@ pub mod index;
 pub mod io;
 pub mod metrics;
 pub mod model;
+pub mod pipeline;
 pub mod synth;
 pub mod texture;
 

@@ -16,3 +16,4 @@ pub fn decode_to_store(src: &ImageSource, work_dir: &Path) -> Result<TileStore, 
     let _ = work_dir;
     Err(TextureError::Unsupported { image: src.describe(), msg: "not written yet".into() })
 }
+

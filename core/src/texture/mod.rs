@@ -125,6 +125,28 @@ impl ImageFormat {
         }
     }
 
+    /// The format of an image source, from its first bytes (never from its name, which may lie).
+    pub fn of_source(src: &crate::model::ImageSource) -> Result<Self, TextureError> {
+        use std::io::Read;
+        let mut head = [0u8; 8];
+        let n = match src {
+            crate::model::ImageSource::File(path) => {
+                let mut f = std::fs::File::open(path)
+                    .map_err(|e| TextureError::File { path: path.clone(), source: e })?;
+                f.read(&mut head).map_err(|e| TextureError::File { path: path.clone(), source: e })?
+            }
+            crate::model::ImageSource::Embedded { bytes, .. } => {
+                let n = bytes.len().min(8);
+                head[..n].copy_from_slice(&bytes[..n]);
+                n
+            }
+        };
+        Self::from_magic(&head[..n]).ok_or_else(|| TextureError::Unsupported {
+            image: src.describe(),
+            msg: "not a PNG, JPEG, TIFF or OpenEXR image".into(),
+        })
+    }
+
     /// The canonical extension.
     pub fn extension(self) -> &'static str {
         match self {

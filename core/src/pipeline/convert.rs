@@ -1,0 +1,89 @@
+//! `convert`: a model to another format, its sheets decoded into tile stores and re-encoded one at
+//! a time, so memory stays bounded by a sheet's page cache, not its decoded size.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use super::PipelineError;
+use crate::io::WriteOptions;
+use crate::model::ImageSource;
+use crate::texture::encode::{EncodeOptions, write_image};
+use crate::texture::{ImageFormat, decode};
+
+/// Options of a conversion.
+#[derive(Clone, Debug)]
+pub struct ConvertOptions {
+    /// Texture format of the output sheets; `None` keeps each sheet's input format.
+    pub texture_format: Option<ImageFormat>,
+    pub jpeg_quality: u8,
+    /// Folder for tile files; `None` = the output's folder.
+    pub work_dir: Option<PathBuf>,
+}
+
+/// What a conversion did.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ConvertReport {
+    pub faces: usize,
+    pub sheets: Vec<PathBuf>,
+    pub read_seconds: f64,
+    pub textures_seconds: f64,
+    pub write_seconds: f64,
+}
+
+/// The file name of output sheet `k` of a model written to `output`.
+pub fn output_sheet_path(output: &Path, k: usize, format: ImageFormat) -> PathBuf {
+    let stem = output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    output.with_file_name(format!("{stem}_{k}.{}", format.extension()))
+}
+
+/// Converts `input` to `output`; never overwrites the input or its textures.
+pub fn convert(input: &Path, output: &Path, opts: &ConvertOptions) -> Result<ConvertReport, PipelineError> {
+    let t0 = Instant::now();
+    let mut model = super::load_model(input)?;
+    let read_seconds = t0.elapsed().as_secs_f64();
+
+    let out_dir = match output.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    super::create_dir(&out_dir)?;
+    let work_dir = opts.work_dir.clone().unwrap_or_else(|| out_dir.clone());
+    super::create_dir(&work_dir)?;
+
+    let mut protect = vec![input.to_path_buf()];
+    protect.extend(model.sheets.iter().filter_map(|s| match &s.image {
+        ImageSource::File(p) => Some(p.clone()),
+        ImageSource::Embedded { .. } => None,
+    }));
+
+    let t1 = Instant::now();
+    let mut written = Vec::with_capacity(model.sheets.len());
+    for (k, sheet) in model.sheets.iter_mut().enumerate() {
+        let store = decode::decode_to_store(&sheet.image, &work_dir)?;
+        let format = match opts.texture_format {
+            Some(f) => f,
+            None => ImageFormat::of_source(&sheet.image)?,
+        };
+        let path = output_sheet_path(output, k, format);
+        let enc = EncodeOptions {
+            format: Some(format),
+            jpeg_quality: opts.jpeg_quality,
+            protect: protect.clone(),
+        };
+        write_image(&store, &path, &enc)?;
+        sheet.image = ImageSource::File(path.clone());
+        sheet.size = Some((store.width(), store.height()));
+        written.push(path);
+    }
+    let textures_seconds = t1.elapsed().as_secs_f64();
+
+    let t2 = Instant::now();
+    crate::io::write_model(&model, output, &WriteOptions { protect })?;
+    Ok(ConvertReport {
+        faces: model.faces.len(),
+        sheets: written,
+        read_seconds,
+        textures_seconds,
+        write_seconds: t2.elapsed().as_secs_f64(),
+    })
+}

@@ -1,0 +1,51 @@
+//! Stage orchestration shared by the subcommands: loading a model with its sheet sizes, converting
+//! between formats through the tile store, and the errors and reports of whole runs.
+
+pub mod convert;
+
+use std::path::{Path, PathBuf};
+
+use crate::io::IoError;
+use crate::model::Model;
+use crate::texture::TextureError;
+
+/// Errors of whole runs.
+#[derive(Debug, thiserror::Error)]
+pub enum PipelineError {
+    #[error(transparent)]
+    Io(#[from] IoError),
+    #[error(transparent)]
+    Texture(#[from] TextureError),
+    #[error("{path}: {source}")]
+    File { path: PathBuf, source: std::io::Error },
+    #[error("{0}")]
+    Usage(String),
+}
+
+/// Reads a model and fills in every sheet's size from its image header (no pixels decoded).
+/// A missing or unreadable texture is an error naming the file.
+pub fn load_model(path: &Path) -> Result<Model, PipelineError> {
+    let mut model = crate::io::read_model(path)?;
+    probe_sheet_sizes(&mut model)?;
+    Ok(model)
+}
+
+/// Fills `Sheet::size` of every sheet whose size is unknown.
+pub fn probe_sheet_sizes(model: &mut Model) -> Result<(), TextureError> {
+    for sheet in &mut model.sheets {
+        if sheet.size.is_none() {
+            sheet.size = Some(crate::texture::decode::probe_size(&sheet.image)?);
+        }
+    }
+    Ok(())
+}
+
+/// The sizes of a model's sheets, in sheet order.
+pub fn sheet_sizes(model: &Model) -> Vec<Option<(u32, u32)>> {
+    model.sheets.iter().map(|s| s.size).collect()
+}
+
+/// Creates a folder (and its parents), naming it in the error.
+pub fn create_dir(path: &Path) -> Result<(), PipelineError> {
+    std::fs::create_dir_all(path).map_err(|e| PipelineError::File { path: path.to_path_buf(), source: e })
+}

@@ -1,0 +1,20 @@
+//! Dispatch of the subcommands.
+
+mod convert;
+mod demo;
+mod stats;
+mod synth;
+
+use anyhow::Result;
+
+use crate::cli::{Cli, Command};
+
+pub fn run(cli: Cli) -> Result<()> {
+    let quiet = cli.global.quiet;
+    match cli.command {
+        Command::Stats(a) => stats::run(&a),
+        Command::Synth(a) => synth::run(&a, quiet),
+        Command::Demo(a) => demo::run(&a, quiet),
+        Command::Convert(a) => convert::run(&a, quiet),
+    }
+}

@@ -1,0 +1,180 @@
+//! End-to-end tests of the `scanatlas` binary: exit codes, one-line errors on bad input (never a
+//! panic), and the zero-input commands.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn scanatlas(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_scanatlas"))
+        .args(args)
+        .current_dir(cwd)
+        .env_remove("SCANATLAS_LOG")
+        .output()
+        .expect("the scanatlas binary runs")
+}
+
+/// Asserts a clean failure: exit status 1, an error line naming `needle`, no panic.
+#[track_caller]
+fn assert_clean_failure(out: &Output, needle: &str) {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "panic on bad input: {stderr}");
+    assert!(stderr.contains("scanatlas: error:"), "stderr: {stderr}");
+    assert!(stderr.contains(needle), "error does not mention {needle:?}: {stderr}");
+}
+
+fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, bytes).unwrap();
+    p
+}
+
+/// A tiny valid 2x2 RGB PNG.
+fn tiny_png() -> Vec<u8> {
+    let mut buf = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut buf, 2, 2);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut w = enc.write_header().unwrap();
+        w.write_image_data(&[255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255]).unwrap();
+    }
+    buf
+}
+
+const QUAD_OBJ: &str = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nusemtl a\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n";
+
+#[test]
+fn usage_errors_exit_with_status_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = scanatlas(&["no-such-command"], dir.path());
+    assert_eq!(out.status.code(), Some(2));
+    let out = scanatlas(&["stats"], dir.path());
+    assert_eq!(out.status.code(), Some(2));
+}
+
+#[test]
+fn stats_of_a_small_obj_prints_figures_and_json() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "m.mtl", b"newmtl a\nmap_Kd t.png\n");
+    write(dir.path(), "t.png", &tiny_png());
+    write(dir.path(), "q.obj", QUAD_OBJ.as_bytes());
+    let out = scanatlas(&["stats", "q.obj", "--json"], dir.path());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["faces"], 2);
+    assert_eq!(v["charts_edge"], 1);
+    assert_eq!(v["total_texels"], 4);
+    // The unit square scaled to a 2x2 sheet: area 4 texels, border 8 texels.
+    assert!((v["uv_area_texels"].as_f64().unwrap() - 4.0).abs() < 1e-9);
+    assert!((v["uv_boundary_length_texels"].as_f64().unwrap() - 8.0).abs() < 1e-9);
+    let out = scanatlas(&["stats", "q.obj"], dir.path());
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stdout).contains("charts"));
+}
+
+#[test]
+fn bad_models_fail_cleanly_naming_file_and_place() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(d, "m.mtl", b"newmtl a\nmap_Kd t.png\n");
+    write(d, "t.png", &tiny_png());
+    let cases: &[(&str, &[u8], &str)] = &[
+        ("range.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", "range.obj:4"),
+        ("nan.obj", b"v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n", "nan.obj:2"),
+        ("inf.obj", b"v 0 0 0\nv 1 inf 0\nv 0 1 0\nf 1 2 3\n", "inf.obj:2"),
+        ("empty.obj", b"# nothing here\n", "empty.obj"),
+        ("trunc.ply", b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\0\0\0\0", "trunc.ply"),
+        ("huge.ply", b"ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\nproperty float y\nproperty float z\nend_header\n", "huge.ply"),
+        ("bad.gltf", b"{\"asset\":{\"version\":\"2.0\"},\"buffers\":[{\"byteLength\":12,\"uri\":\"data:application/octet-stream;base64,AAAAAAAAAAAAAAAA\"}],\"bufferViews\":[{\"buffer\":0,\"byteLength\":12}],\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":300,\"type\":\"VEC3\"}],\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0}}]}]}", "bad.gltf"),
+        ("trunc.glb", b"glTF\x02\0\0\0\xff\xff\0\0", "trunc.glb"),
+        ("missing_tex.obj", b"mtllib nomtl.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "nomtl.mtl"),
+    ];
+    for (name, bytes, needle) in cases {
+        write(d, name, bytes);
+        let out = scanatlas(&["stats", name], d);
+        assert_clean_failure(&out, needle);
+    }
+}
+
+#[test]
+fn bad_textures_fail_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(d, "q.obj", QUAD_OBJ.as_bytes());
+    // Each case: the texture file the material points to, and what the error must name.
+    let cases: &[(&str, Option<&[u8]>)] = &[
+        ("gone.png", None),
+        ("fake.png", Some(b"GIF89a\x01\0\x01\0")),
+        ("trunc.png", Some(&b"\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR"[..])),
+        ("zero.png", Some(&ZERO_PNG_HEADER[..])),
+    ];
+    for (tex, bytes) in cases {
+        if let Some(b) = bytes {
+            write(d, tex, b);
+        }
+        write(d, "m.mtl", format!("newmtl a\nmap_Kd {tex}\n").as_bytes());
+        let out = scanatlas(&["stats", "q.obj"], d);
+        assert_clean_failure(&out, tex);
+    }
+}
+
+/// A PNG signature and IHDR chunk declaring a 0x0 image.
+const ZERO_PNG_HEADER: [u8; 33] = [
+    0x89, b'P', b'N', b'G', b'\r', b'\n', 0x1a, b'\n', 0, 0, 0, 13, b'I', b'H', b'D', b'R', 0, 0, 0, 0,
+    0, 0, 0, 0, 8, 2, 0, 0, 0, 0x2e, 0x7b, 0x43, 0x8a,
+];
+
+#[test]
+fn convert_refuses_to_overwrite_its_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(d, "m.mtl", b"newmtl a\nmap_Kd t.png\n");
+    write(d, "t.png", &tiny_png());
+    write(d, "q.obj", QUAD_OBJ.as_bytes());
+    let out = scanatlas(&["convert", "q.obj", "-o", "q.obj"], d);
+    assert_clean_failure(&out, "q.obj");
+    assert_eq!(std::fs::read(d.join("q.obj")).unwrap(), QUAD_OBJ.as_bytes());
+}
+
+#[test]
+fn demo_runs_without_input_and_synth_is_deterministic() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = scanatlas(&["demo", "demo-out", "--quiet"], d);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("charts"), "{text}");
+    assert!(d.join("demo-out/scan.obj").exists());
+
+    for run in ["a", "b"] {
+        let out = scanatlas(&["synth", run, "--faces", "3000", "--sheet-size", "256", "--seed", "5", "-q"], d);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    }
+    for f in ["scan.obj", "scan.mtl", "sheet_0.png"] {
+        assert_eq!(std::fs::read(d.join("a").join(f)).unwrap(), std::fs::read(d.join("b").join(f)).unwrap(), "{f}");
+    }
+}
+
+#[test]
+fn convert_round_trips_through_every_format() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = scanatlas(&["synth", "s", "--faces", "2000", "--sheet-size", "256", "-q"], d);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let base = scanatlas(&["stats", "s/scan.obj", "--json"], d);
+    assert!(base.status.success());
+    let base: serde_json::Value = serde_json::from_slice(&base.stdout).unwrap();
+    for (model, tex) in [("c/a.gltf", "png"), ("c/b.glb", "tiff"), ("c/c.ply", "exr"), ("c/d.obj", "png")] {
+        let out = scanatlas(&["convert", "s/scan.obj", "-o", model, "--texture-format", tex, "-q"], d);
+        assert!(out.status.success(), "{model}: {}", String::from_utf8_lossy(&out.stderr));
+        let st = scanatlas(&["stats", model, "--json"], d);
+        assert!(st.status.success(), "{model}: {}", String::from_utf8_lossy(&st.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&st.stdout).unwrap();
+        for key in ["faces", "vertices_3d", "charts_edge", "total_texels", "texture_sheets"] {
+            assert_eq!(v[key], base[key], "{model}: {key}");
+        }
+        let (a, b) = (v["atlas_solidity"].as_f64().unwrap(), base["atlas_solidity"].as_f64().unwrap());
+        assert!((a - b).abs() <= 1e-5 * b, "{model}: solidity {a} vs {b}");
+    }
+}
