@@ -5,11 +5,13 @@
 //! user data, never reorders or drops input faces, and never holds a whole texture sheet in RAM.
 
 pub mod atomic;
+pub mod geometry;
 pub mod index;
 pub mod io;
 pub mod metrics;
 pub mod model;
 pub mod pipeline;
+pub mod plugin;
 pub mod synth;
 pub mod texture;
 

@@ -1,0 +1,130 @@
+//! The plugin API of scanatlas: the `MergeScorer`, `LocalSolver` and (later) `Packer` traits, the
+//! views they receive, and the `Registry` that maps stable kebab-case names to factories.
+//!
+//! API boundary: `scanatlas-plugins` sees only this module (and `geometry`). One dynamic call is
+//! made per operation or per local problem; hot loops inside a plugin stay monomorphic.
+
+mod registry;
+
+pub use registry::{get_f64, ParamInfo, ParamValue, Params, PluginError, PluginInfo, PluginKind, Registry};
+
+/// What a scorer knows of a candidate merge operation: cheap, precomputed chart and seam features,
+/// all in texel units of the shared texel space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OpFeatures {
+    /// Stable id of the operation (used for deterministic tie-breaks and seeded randomness).
+    pub op_id: u32,
+    /// True when the operation joins two different charts; false for an intra-chart seam chain.
+    pub inter_chart: bool,
+    /// Absolute UV areas of chart a (the larger, by face count) and b (equal to a when intra).
+    pub uv_area_a: f64,
+    pub uv_area_b: f64,
+    /// 3D areas of the two charts.
+    pub area_3d_a: f64,
+    pub area_3d_b: f64,
+    /// UV perimeters (border lengths, every seam side counted) of the two charts.
+    pub perimeter_a: f64,
+    pub perimeter_b: f64,
+    /// UV length of the edges to dissolve on each side (for intra-chart operations both sides are
+    /// on chart a, and `seam_length_a` holds their sum, as the reference does).
+    pub seam_length_a: f64,
+    pub seam_length_b: f64,
+    /// Mean distance between the vertex pairs to fuse after the rigid alignment.
+    pub mean_match_error: f64,
+    /// Number of vertex pairs to fuse and of linked edge pairs to dissolve.
+    pub pairs: u32,
+    pub seam_edges: u32,
+    /// How many times this operation has already failed (the back-off exponent k).
+    pub failures: u32,
+    /// The small-island look-ahead of the reference (digest §4.4) passed for this pair of charts.
+    pub island_lookahead: bool,
+}
+
+/// Why a scorer refuses an operation outright.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Veto {
+    /// A chart has zero UV or 3D area.
+    ZeroArea,
+    /// The alignment error exceeds the matching tolerance.
+    Matching,
+    /// Neither chart loses enough of its perimeter (boundary tolerance).
+    Boundary,
+}
+
+/// The verdict of a scorer: an appeal (higher = attempted earlier; always finite and ≥ 0) or a veto.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Score {
+    Appeal(f64),
+    Veto(Veto),
+}
+
+/// Ranks candidate merge operations. Pure and cheap: it is called for every operation after every
+/// accepted merge that touches it.
+pub trait MergeScorer: Send + Sync {
+    fn score(&self, op: &OpFeatures) -> Score;
+}
+
+/// One local re-optimization problem: a disk-like patch of triangles in texel space.
+///
+/// Vertices `0..n` carry their current UVs in `uv`; `fixed[i]` vertices must not move. Each
+/// triangle's target is its ORIGINAL UV triangle (corners in the same order as `triangles`), so
+/// the solver minimizes isometric distortion against the input atlas, not against 3D.
+#[derive(Clone, Debug, Default)]
+pub struct LocalProblem {
+    pub uv: Vec<[f64; 2]>,
+    pub fixed: Vec<bool>,
+    pub triangles: Vec<[u32; 3]>,
+    pub targets: Vec<[[f64; 2]; 3]>,
+}
+
+impl LocalProblem {
+    /// Checks the shape invariants a solver may rely on.
+    pub fn validate(&self) -> Result<(), SolveError> {
+        let n = self.uv.len();
+        if self.fixed.len() != n {
+            return Err(SolveError::Malformed("fixed flags and vertices differ in length".into()));
+        }
+        if self.targets.len() != self.triangles.len() {
+            return Err(SolveError::Malformed("targets and triangles differ in length".into()));
+        }
+        if self.triangles.iter().flatten().any(|&v| v as usize >= n) {
+            return Err(SolveError::Malformed("triangle corner out of range".into()));
+        }
+        if self.uv.iter().flatten().chain(self.targets.iter().flatten().flatten()).any(|c| !c.is_finite()) {
+            return Err(SolveError::NonFinite);
+        }
+        Ok(())
+    }
+}
+
+/// What a solve did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct SolveReport {
+    /// Area-weighted mean isometric energy before and after (see `geometry::isometric_energy`).
+    pub energy_before: f64,
+    pub energy_after: f64,
+    pub iterations: u32,
+}
+
+/// Why a local solve failed (the merge is then rolled back with this reason).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SolveError {
+    #[error("malformed local problem: {0}")]
+    Malformed(String),
+    #[error("non-finite coordinates")]
+    NonFinite,
+    #[error("a connected part of the patch has no fixed vertex")]
+    Unanchored,
+    #[error("the linear system could not be factorized: {0}")]
+    Factorization(String),
+    #[error("the solution is not finite")]
+    Diverged,
+}
+
+/// Improves the UVs of a local problem in place. Must never leave a flipped triangle that was not
+/// flipped at the start, must keep fixed vertices bit-identical, and must not increase the energy.
+/// A solver instance is used by one worker at a time, so it may keep scratch buffers.
+pub trait LocalSolver: Send {
+    fn solve(&mut self, problem: &mut LocalProblem) -> Result<SolveReport, SolveError>;
+}

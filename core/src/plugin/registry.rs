@@ -1,0 +1,181 @@
+//! `Registry`: plugin factories by kind and stable kebab-case name, with typed parameters and their
+//! defaults, so unknown names and parameters are refused before any work starts.
+
+use std::collections::BTreeMap;
+
+use super::{LocalSolver, MergeScorer};
+
+/// The kinds of plugins.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PluginKind {
+    Scorer,
+    Solver,
+    Packer,
+}
+
+impl std::fmt::Display for PluginKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Scorer => "scorer",
+            Self::Solver => "solver",
+            Self::Packer => "packer",
+        })
+    }
+}
+
+/// A parameter value.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[serde(untagged)]
+pub enum ParamValue {
+    Float(f64),
+    Int(i64),
+    Bool(bool),
+    Text(String),
+}
+
+/// A declared parameter of a plugin.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ParamInfo {
+    pub name: &'static str,
+    pub default: ParamValue,
+    pub help: &'static str,
+}
+
+/// The description of a plugin shown by `scanatlas plugins`.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct PluginInfo {
+    pub kind: PluginKind,
+    pub name: &'static str,
+    pub summary: &'static str,
+    pub params: Vec<ParamInfo>,
+}
+
+/// Parameter values given by the user (config file or command line), by name.
+pub type Params = BTreeMap<String, ParamValue>;
+
+/// Errors of plugin lookup and construction.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum PluginError {
+    #[error("unknown {kind} `{name}`; available: {available}")]
+    UnknownName { kind: PluginKind, name: String, available: String },
+    #[error("{kind} `{name}` has no parameter `{param}`; its parameters: {available}")]
+    UnknownParam { kind: PluginKind, name: String, param: String, available: String },
+    #[error("{kind} `{name}`: parameter `{param}`: {msg}")]
+    BadParam { kind: PluginKind, name: String, param: String, msg: String },
+    #[error("a {kind} named `{name}` is already registered")]
+    Duplicate { kind: PluginKind, name: String },
+}
+
+type ScorerFactory = Box<dyn Fn(&Params) -> Result<Box<dyn MergeScorer>, PluginError> + Send + Sync>;
+type SolverFactory = Box<dyn Fn(&Params) -> Result<Box<dyn LocalSolver>, PluginError> + Send + Sync>;
+
+struct Entry<F> {
+    info: PluginInfo,
+    factory: F,
+}
+
+/// Maps plugin names to factories.
+#[derive(Default)]
+pub struct Registry {
+    scorers: BTreeMap<&'static str, Entry<ScorerFactory>>,
+    solvers: BTreeMap<&'static str, Entry<SolverFactory>>,
+}
+
+impl std::fmt::Debug for Registry {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Registry")
+            .field("scorers", &self.scorers.keys().collect::<Vec<_>>())
+            .field("solvers", &self.solvers.keys().collect::<Vec<_>>())
+            .finish()
+    }
+}
+
+fn insert<F>(
+    map: &mut BTreeMap<&'static str, Entry<F>>,
+    info: PluginInfo,
+    factory: F,
+) -> Result<(), PluginError> {
+    if map.contains_key(info.name) {
+        return Err(PluginError::Duplicate { kind: info.kind, name: info.name.to_string() });
+    }
+    map.insert(info.name, Entry { info, factory });
+    Ok(())
+}
+
+fn lookup<'a, F>(
+    map: &'a BTreeMap<&'static str, Entry<F>>,
+    kind: PluginKind,
+    name: &str,
+    params: &Params,
+) -> Result<&'a Entry<F>, PluginError> {
+    let entry = map.get(name).ok_or_else(|| PluginError::UnknownName {
+        kind,
+        name: name.to_string(),
+        available: map.keys().copied().collect::<Vec<_>>().join(", "),
+    })?;
+    for key in params.keys() {
+        if !entry.info.params.iter().any(|p| p.name == key) {
+            let names: Vec<&str> = entry.info.params.iter().map(|p| p.name).collect();
+            return Err(PluginError::UnknownParam {
+                kind,
+                name: name.to_string(),
+                param: key.clone(),
+                available: if names.is_empty() { "none".into() } else { names.join(", ") },
+            });
+        }
+    }
+    Ok(entry)
+}
+
+impl Registry {
+    pub fn register_scorer(
+        &mut self,
+        info: PluginInfo,
+        factory: impl Fn(&Params) -> Result<Box<dyn MergeScorer>, PluginError> + Send + Sync + 'static,
+    ) -> Result<(), PluginError> {
+        insert(&mut self.scorers, info, Box::new(factory))
+    }
+
+    pub fn register_solver(
+        &mut self,
+        info: PluginInfo,
+        factory: impl Fn(&Params) -> Result<Box<dyn LocalSolver>, PluginError> + Send + Sync + 'static,
+    ) -> Result<(), PluginError> {
+        insert(&mut self.solvers, info, Box::new(factory))
+    }
+
+    /// Builds the scorer `name`, refusing unknown names and parameters.
+    pub fn scorer(&self, name: &str, params: &Params) -> Result<Box<dyn MergeScorer>, PluginError> {
+        (lookup(&self.scorers, PluginKind::Scorer, name, params)?.factory)(params)
+    }
+
+    /// Builds the solver `name`, refusing unknown names and parameters.
+    pub fn solver(&self, name: &str, params: &Params) -> Result<Box<dyn LocalSolver>, PluginError> {
+        (lookup(&self.solvers, PluginKind::Solver, name, params)?.factory)(params)
+    }
+
+    /// Every registered plugin, by kind then name.
+    pub fn infos(&self) -> Vec<&PluginInfo> {
+        self.scorers.values().map(|e| &e.info).chain(self.solvers.values().map(|e| &e.info)).collect()
+    }
+}
+
+/// Reads a float parameter, falling back to the declared default.
+pub fn get_f64(params: &Params, info: &PluginInfo, key: &str) -> Result<f64, PluginError> {
+    let bad = |msg: &str| PluginError::BadParam {
+        kind: info.kind,
+        name: info.name.to_string(),
+        param: key.to_string(),
+        msg: msg.to_string(),
+    };
+    let value = params
+        .get(key)
+        .or_else(|| info.params.iter().find(|p| p.name == key).map(|p| &p.default))
+        .ok_or_else(|| bad("not declared"))?;
+    match value {
+        ParamValue::Float(x) if x.is_finite() => Ok(*x),
+        ParamValue::Int(i) => Ok(*i as f64),
+        _ => Err(bad("expected a finite number")),
+    }
+}
