@@ -1,0 +1,231 @@
+//! Byte-level lexing shared by the OBJ and MTL readers: logical lines (with `\` continuation and
+//! CRLF), keywords, whitespace-separated tokens, numbers and indices.
+//!
+//! Everything here works on raw bytes of the memory-mapped file and allocates nothing, except a
+//! reused scratch buffer for the rare lines joined by a trailing backslash.
+
+/// True for the bytes OBJ treats as blanks between tokens. `\r` is included so CRLF files need
+/// no special case: the carriage return is just trailing whitespace.
+#[inline]
+pub(super) fn is_blank(b: u8) -> bool {
+    matches!(b, b' ' | b'\t' | b'\r' | 0x0b | 0x0c)
+}
+
+/// Strips a trailing `\r` (CRLF files) from a physical line.
+#[inline]
+fn strip_cr(line: &[u8]) -> &[u8] {
+    match line.last() {
+        Some(b'\r') => &line[..line.len() - 1],
+        _ => line,
+    }
+}
+
+/// If the physical line ends with a continuation backslash, the line without it.
+#[inline]
+fn continued(line: &[u8]) -> Option<&[u8]> {
+    let l = strip_cr(line);
+    match l.last() {
+        Some(b'\\') => Some(&l[..l.len() - 1]),
+        _ => None,
+    }
+}
+
+/// True when the physical line ending just before `end` (the index of its `\n`) continues on the
+/// next line. Used to keep chunk boundaries off continued lines.
+pub(super) fn continues_at(buf: &[u8], newline: usize) -> bool {
+    let start = memchr::memrchr(b'\n', &buf[..newline]).map_or(0, |i| i + 1);
+    continued(&buf[start..newline]).is_some()
+}
+
+/// Calls `f(line, line_no)` for every logical line of `buf`, where `line_no` is the number of
+/// the line's first physical line (the first line of `buf` is `first_line`). Lines joined with a
+/// trailing `\` are handed over as one line, the backslash and line break replaced by a blank.
+/// Stops at the first error of `f`. Returns the number of physical lines in `buf` (a last line
+/// without a line break counts).
+pub(super) fn for_each_line<E>(
+    buf: &[u8],
+    first_line: u64,
+    mut f: impl FnMut(&[u8], u64) -> Result<(), E>,
+) -> Result<u64, E> {
+    let mut pos = 0usize;
+    let mut line_no = first_line;
+    let mut scratch: Vec<u8> = Vec::new();
+    while pos < buf.len() {
+        let end = memchr::memchr(b'\n', &buf[pos..]).map_or(buf.len(), |i| pos + i);
+        let line = &buf[pos..end];
+        let start_no = line_no;
+        line_no += 1;
+        pos = end + 1;
+        match continued(line) {
+            None => f(line, start_no)?,
+            Some(head) => {
+                // Rare slow path: join the physical lines into the scratch buffer.
+                scratch.clear();
+                scratch.extend_from_slice(head);
+                scratch.push(b' ');
+                while pos < buf.len() {
+                    let end = memchr::memchr(b'\n', &buf[pos..]).map_or(buf.len(), |i| pos + i);
+                    let next = &buf[pos..end];
+                    line_no += 1;
+                    pos = end + 1;
+                    match continued(next) {
+                        Some(h) => {
+                            scratch.extend_from_slice(h);
+                            scratch.push(b' ');
+                        }
+                        None => {
+                            scratch.extend_from_slice(next);
+                            break;
+                        }
+                    }
+                }
+                f(&scratch, start_no)?;
+            }
+        }
+    }
+    Ok(line_no - first_line)
+}
+
+/// Splits a line into its keyword and the rest (which starts at the blank after the keyword).
+/// An empty or blank line gives an empty keyword.
+#[inline]
+pub(super) fn split_keyword(line: &[u8]) -> (&[u8], &[u8]) {
+    let mut i = 0;
+    while i < line.len() && is_blank(line[i]) {
+        i += 1;
+    }
+    let start = i;
+    while i < line.len() && !is_blank(line[i]) {
+        i += 1;
+    }
+    (&line[start..i], &line[i..])
+}
+
+/// The rest of a line as text without surrounding blanks (names may contain inner spaces).
+pub(super) fn rest_text(rest: &[u8]) -> String {
+    String::from_utf8_lossy(trim(rest)).into_owned()
+}
+
+/// `bytes` without leading and trailing blanks.
+pub(super) fn trim(bytes: &[u8]) -> &[u8] {
+    let start = bytes.iter().position(|&b| !is_blank(b)).unwrap_or(bytes.len());
+    let end = bytes.iter().rposition(|&b| !is_blank(b)).map_or(start, |i| i + 1);
+    &bytes[start..end.max(start)]
+}
+
+/// Whitespace-separated tokens of a numeric statement; a `#` starts a trailing comment.
+pub(super) struct Tokens<'a> {
+    bytes: &'a [u8],
+    pos: usize,
+}
+
+impl<'a> Tokens<'a> {
+    #[inline]
+    pub(super) fn new(bytes: &'a [u8]) -> Self {
+        Self { bytes, pos: 0 }
+    }
+}
+
+impl<'a> Iterator for Tokens<'a> {
+    type Item = &'a [u8];
+
+    #[inline]
+    fn next(&mut self) -> Option<&'a [u8]> {
+        let b = self.bytes;
+        let mut i = self.pos;
+        while i < b.len() && is_blank(b[i]) {
+            i += 1;
+        }
+        if i >= b.len() || b[i] == b'#' {
+            self.pos = b.len();
+            return None;
+        }
+        let start = i;
+        while i < b.len() && !is_blank(b[i]) {
+            i += 1;
+        }
+        self.pos = i;
+        Some(&b[start..i])
+    }
+}
+
+/// Parses a whole token as an `f64` (accepts `nan`, `inf`, exponents).
+#[inline]
+pub(super) fn parse_f64(tok: &[u8]) -> Option<f64> {
+    fast_float2::parse::<f64, _>(tok).ok()
+}
+
+/// Parses a whole token as an `f32`, directly (parsing through `f64` could round twice).
+#[inline]
+pub(super) fn parse_f32(tok: &[u8]) -> Option<f32> {
+    fast_float2::parse::<f32, _>(tok).ok()
+}
+
+/// Parses an OBJ index: an optional sign and 1 to 18 digits (so it always fits an `i64`).
+#[inline]
+pub(super) fn parse_index(tok: &[u8]) -> Option<i64> {
+    let (neg, digits) = match tok.first() {
+        Some(b'-') => (true, &tok[1..]),
+        Some(b'+') => (false, &tok[1..]),
+        _ => (false, tok),
+    };
+    if digits.is_empty() || digits.len() > 18 {
+        return None;
+    }
+    let mut v: i64 = 0;
+    for &d in digits {
+        if !d.is_ascii_digit() {
+            return None;
+        }
+        v = v * 10 + i64::from(d - b'0');
+    }
+    Some(if neg { -v } else { v })
+}
+
+/// A token quoted for an error message, shortened so a garbage line cannot flood the message.
+pub(super) fn quote(tok: &[u8]) -> String {
+    const MAX: usize = 40;
+    let s = String::from_utf8_lossy(&tok[..tok.len().min(MAX)]);
+    if tok.len() > MAX { format!("'{s}...'") } else { format!("'{s}'") }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lines(buf: &[u8]) -> Vec<(String, u64)> {
+        let mut out = Vec::new();
+        let n = for_each_line::<()>(buf, 1, |l, no| {
+            out.push((String::from_utf8_lossy(l).into_owned(), no));
+            Ok(())
+        })
+        .unwrap();
+        out.push((String::new(), n));
+        out
+    }
+
+    #[test]
+    fn logical_lines_join_continuations_and_count_physical_lines() {
+        let got = lines(b"a\r\nf 1 \\\n 2 \\\r\n3\nlast");
+        assert_eq!(got[0], ("a\r".to_string(), 1));
+        assert_eq!(got[1], ("f 1   2  3".to_string(), 2));
+        assert_eq!(got[2], ("last".to_string(), 5));
+        assert_eq!(got[3].1, 5);
+        assert_eq!(lines(b"x\n").last().unwrap().1, 1);
+    }
+
+    #[test]
+    fn tokens_stop_at_comments_and_indices_parse() {
+        let t: Vec<&[u8]> = Tokens::new(b" 1\t2/3 # x y").collect();
+        assert_eq!(t, vec![&b"1"[..], &b"2/3"[..]]);
+        assert_eq!(parse_index(b"-12"), Some(-12));
+        assert_eq!(parse_index(b"1x"), None);
+        assert_eq!(parse_index(b""), None);
+        assert_eq!(parse_index(b"1234567890123456789"), None);
+        assert_eq!(parse_f64(b"1e3"), Some(1000.0));
+        assert!(parse_f64(b"1.5e").is_none());
+        assert!(parse_f64(b"NaN").is_some_and(f64::is_nan));
+        assert_eq!(split_keyword(b"  vt 1 2"), (&b"vt"[..], &b" 1 2"[..]));
+        assert_eq!(trim(b" \ta b\r"), b"a b");
+    }
+}
