@@ -8,7 +8,8 @@
 /// no special case: the carriage return is just trailing whitespace.
 #[inline]
 pub(super) fn is_blank(b: u8) -> bool {
-    matches!(b, b' ' | b'\t' | b'\r' | 0x0b | 0x0c)
+    // Space, or one of \t \n (never inside a line) 0x0b 0x0c \r: one compare and one range.
+    b == b' ' || (b'\t'..=b'\r').contains(&b)
 }
 
 /// Strips a trailing `\r` (CRLF files) from a physical line.
@@ -113,73 +114,95 @@ pub(super) fn trim(bytes: &[u8]) -> &[u8] {
     &bytes[start..end.max(start)]
 }
 
-/// Whitespace-separated tokens of a numeric statement; a `#` starts a trailing comment.
-pub(super) struct Tokens<'a> {
-    bytes: &'a [u8],
-    pos: usize,
-}
-
-impl<'a> Tokens<'a> {
-    #[inline]
-    pub(super) fn new(bytes: &'a [u8]) -> Self {
-        Self { bytes, pos: 0 }
-    }
-}
-
-impl<'a> Iterator for Tokens<'a> {
-    type Item = &'a [u8];
-
-    #[inline]
-    fn next(&mut self) -> Option<&'a [u8]> {
-        let b = self.bytes;
-        let mut i = self.pos;
-        while i < b.len() && is_blank(b[i]) {
-            i += 1;
+/// The number of blank-separated tokens of a statement's arguments; a `#` at the start of a
+/// token begins a trailing comment. Pass 1 counts face corners with it, and pass 2's tokenizer
+/// ([`at_token`]) splits exactly the same way.
+#[inline]
+pub(super) fn count_tokens(bytes: &[u8]) -> u64 {
+    let mut n = 0;
+    let mut in_token = false;
+    for &c in bytes {
+        if is_blank(c) {
+            in_token = false;
+        } else if !in_token {
+            if c == b'#' {
+                break;
+            }
+            n += 1;
+            in_token = true;
         }
-        if i >= b.len() || b[i] == b'#' {
-            self.pos = b.len();
+    }
+    n
+}
+
+/// The token starting at `start` (up to the next blank), for error messages.
+pub(super) fn token_at(bytes: &[u8], start: usize) -> &[u8] {
+    let rest = bytes.get(start..).unwrap_or_default();
+    let end = rest.iter().position(|&c| is_blank(c)).unwrap_or(rest.len());
+    &rest[..end]
+}
+
+/// Skips blanks from `*pos`; true when a token starts there (not the end, not a comment).
+#[inline]
+pub(super) fn at_token(bytes: &[u8], pos: &mut usize) -> bool {
+    while *pos < bytes.len() && is_blank(bytes[*pos]) {
+        *pos += 1;
+    }
+    *pos < bytes.len() && bytes[*pos] != b'#'
+}
+
+/// Parses the number token starting at `*pos` (after [`at_token`]) in place and moves past it.
+/// `Err(())` when the token is not exactly one number (`nan`, `inf` and exponents are numbers).
+#[inline]
+pub(super) fn number_at<T: fast_float2::FastFloat>(bytes: &[u8], pos: &mut usize) -> Result<T, ()> {
+    let (x, n) = fast_float2::parse_partial::<T, _>(&bytes[*pos..]).map_err(|_| ())?;
+    *pos += n;
+    if *pos < bytes.len() && !is_blank(bytes[*pos]) {
+        return Err(());
+    }
+    Ok(x)
+}
+
+/// Reads an OBJ index (optional sign, 1 to 18 digits, so it always fits an `i64`) starting at
+/// `*pos` and moves past it.
+#[inline]
+pub(super) fn index_at(bytes: &[u8], pos: &mut usize) -> Option<i64> {
+    let mut i = *pos;
+    let neg = match bytes.get(i) {
+        Some(b'-') => {
+            i += 1;
+            true
+        }
+        Some(b'+') => {
+            i += 1;
+            false
+        }
+        _ => false,
+    };
+    let start = i;
+    let mut v: i64 = 0;
+    while let Some(&d) = bytes.get(i) {
+        if !d.is_ascii_digit() {
+            break;
+        }
+        if i - start == 18 {
+            // A 19th digit could overflow; no file holds that many elements anyway.
             return None;
         }
-        let start = i;
-        while i < b.len() && !is_blank(b[i]) {
-            i += 1;
-        }
-        self.pos = i;
-        Some(&b[start..i])
+        v = v * 10 + i64::from(d - b'0');
+        i += 1;
     }
+    if i == start {
+        return None;
+    }
+    *pos = i;
+    Some(if neg { -v } else { v })
 }
 
 /// Parses a whole token as an `f64` (accepts `nan`, `inf`, exponents).
 #[inline]
 pub(super) fn parse_f64(tok: &[u8]) -> Option<f64> {
     fast_float2::parse::<f64, _>(tok).ok()
-}
-
-/// Parses a whole token as an `f32`, directly (parsing through `f64` could round twice).
-#[inline]
-pub(super) fn parse_f32(tok: &[u8]) -> Option<f32> {
-    fast_float2::parse::<f32, _>(tok).ok()
-}
-
-/// Parses an OBJ index: an optional sign and 1 to 18 digits (so it always fits an `i64`).
-#[inline]
-pub(super) fn parse_index(tok: &[u8]) -> Option<i64> {
-    let (neg, digits) = match tok.first() {
-        Some(b'-') => (true, &tok[1..]),
-        Some(b'+') => (false, &tok[1..]),
-        _ => (false, tok),
-    };
-    if digits.is_empty() || digits.len() > 18 {
-        return None;
-    }
-    let mut v: i64 = 0;
-    for &d in digits {
-        if !d.is_ascii_digit() {
-            return None;
-        }
-        v = v * 10 + i64::from(d - b'0');
-    }
-    Some(if neg { -v } else { v })
 }
 
 /// A token quoted for an error message, shortened so a garbage line cannot flood the message.
@@ -215,16 +238,22 @@ mod tests {
     }
 
     #[test]
-    fn tokens_stop_at_comments_and_indices_parse() {
-        let t: Vec<&[u8]> = Tokens::new(b" 1\t2/3 # x y").collect();
-        assert_eq!(t, vec![&b"1"[..], &b"2/3"[..]]);
-        assert_eq!(parse_index(b"-12"), Some(-12));
-        assert_eq!(parse_index(b"1x"), None);
-        assert_eq!(parse_index(b""), None);
-        assert_eq!(parse_index(b"1234567890123456789"), None);
+    fn tokens_numbers_and_indices() {
         assert_eq!(parse_f64(b"1e3"), Some(1000.0));
         assert!(parse_f64(b"1.5e").is_none());
         assert!(parse_f64(b"NaN").is_some_and(f64::is_nan));
+        assert_eq!(count_tokens(b" 1 2/3\t4 #5 6"), 3);
+        let mut p = 0;
+        assert_eq!(index_at(b"-12/3", &mut p), Some(-12));
+        assert_eq!(p, 3);
+        let mut p = 0;
+        assert_eq!(index_at(b"1234567890123456789", &mut p), None);
+        let mut p = 1;
+        assert!(at_token(b"  2.5e1 x", &mut p));
+        assert_eq!(number_at::<f64>(b"  2.5e1 x", &mut p), Ok(25.0));
+        assert!(at_token(b"  2.5e1 x", &mut p));
+        assert_eq!(number_at::<f64>(b"  2.5e1 x", &mut p), Err(()));
+        assert_eq!(token_at(b"a bc d", 2), b"bc");
         assert_eq!(split_keyword(b"  vt 1 2"), (&b"vt"[..], &b" 1 2"[..]));
         assert_eq!(trim(b" \ta b\r"), b"a b");
     }

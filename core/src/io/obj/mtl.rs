@@ -42,8 +42,7 @@ impl MaterialTable {
             return id;
         }
         let id = MaterialId::from_usize(self.materials.len());
-        self.notes
-            .push(format!("usemtl names material '{name}' that no material library defines"));
+        self.notes.push(format!("usemtl names material '{name}' that no material library defines"));
         self.materials.push(Material { name: name.to_string(), sheet: None, extra: Vec::new() });
         self.by_name.insert(name.to_string(), id);
         id
@@ -142,8 +141,7 @@ impl MaterialTable {
 
 /// MTL statements whose last argument is a texture file.
 pub(super) fn is_map_keyword(kw_lower: &str) -> bool {
-    kw_lower.starts_with("map_")
-        || matches!(kw_lower, "bump" | "disp" | "decal" | "refl" | "norm")
+    kw_lower.starts_with("map_") || matches!(kw_lower, "bump" | "disp" | "decal" | "refl" | "norm")
 }
 
 /// A `map_*` statement rebuilt from its keyword, options and file name.
@@ -309,7 +307,10 @@ mod tests {
         assert_eq!(resolve_texture(Path::new("a/b"), "..\\t x.png"), PathBuf::from("a/t x.png"));
         assert_eq!(resolve_texture(Path::new("a"), "/abs/t.png"), PathBuf::from("/abs/t.png"));
         assert_eq!(normalize(Path::new("../x/./y/..")), PathBuf::from("../x"));
-        assert_eq!(relative_path(Path::new("/a/b/t.png"), Path::new("/a/c")).unwrap(), "../b/t.png");
+        assert_eq!(
+            relative_path(Path::new("/a/b/t.png"), Path::new("/a/c")).unwrap(),
+            "../b/t.png"
+        );
         assert_eq!(relative_path(Path::new("/a/t.png"), Path::new("/a")).unwrap(), "t.png");
     }
 }

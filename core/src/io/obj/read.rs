@@ -17,10 +17,10 @@ use std::path::Path;
 use rayon::prelude::*;
 
 use super::lex::{
-    continues_at, for_each_line, parse_f32, parse_f64, parse_index, quote, rest_text,
-    split_keyword, Tokens,
+    at_token, continues_at, count_tokens, for_each_line, index_at, is_blank, number_at, quote,
+    rest_text, split_keyword, token_at,
 };
-use super::mtl::{parent_dir, resolve_texture, MaterialTable};
+use super::mtl::{MaterialTable, parent_dir, resolve_texture};
 use super::{GroupKind, GroupMarker, ObjExtras};
 use crate::index::{FaceId, MaterialId, NormalId, UvId, VertexId};
 use crate::io::IoError;
@@ -35,15 +35,16 @@ const MAX_ELEMENTS: u64 = u32::MAX as u64;
 /// Texture sheets are one per distinct `map_Kd` file, resolved against the MTL's directory.
 /// Malformed input gives an [`IoError::Line`] naming the file and line.
 pub fn read(path: &Path) -> Result<Model, IoError> {
-    read_limited(path, MAX_ELEMENTS)
+    read_with(path, MAX_ELEMENTS, None)
 }
 
-/// [`read`] with a smaller element limit, so tests can reach the "too many elements" error.
-pub(super) fn read_limited(path: &Path, limit: u64) -> Result<Model, IoError> {
+/// [`read`] with a smaller element limit and a forced chunk size, so tests can reach the
+/// "too many elements" error and exercise chunk boundaries on small files.
+pub(super) fn read_with(path: &Path, limit: u64, chunk: Option<usize>) -> Result<Model, IoError> {
     let file = File::open(path).map_err(|e| IoError::file(path, e))?;
     let len = file.metadata().map_err(|e| IoError::file(path, e))?.len();
     if len == 0 {
-        return parse(path, &[], limit);
+        return parse(path, &[], limit, chunk);
     }
     // SAFETY: the map is read-only and lives only during this call. Like every memory-mapped
     // reader, it relies on nobody truncating or rewriting the input while it is read; scanatlas
@@ -51,7 +52,7 @@ pub(super) fn read_limited(path: &Path, limit: u64) -> Result<Model, IoError> {
     let map = unsafe { memmap2::Mmap::map(&file) }.map_err(|e| IoError::file(path, e))?;
     #[cfg(unix)]
     let _ = map.advise(memmap2::Advice::Sequential);
-    parse(path, &map, limit)
+    parse(path, &map, limit, chunk)
 }
 
 /// Per-kind running counts.
@@ -130,14 +131,19 @@ fn scan_chunk(buf: &[u8]) -> ChunkScan {
     let lines = for_each_line::<Infallible>(buf, 0, |line, no| {
         let (kw, rest) = split_keyword(line);
         let mut directive = |kind| {
-            s.directives.push(Directive { kind, line: no, tri: s.counts.tris, text: rest_text(rest) })
+            s.directives.push(Directive {
+                kind,
+                line: no,
+                tri: s.counts.tris,
+                text: rest_text(rest),
+            })
         };
         match kw {
             b"v" => s.counts.v += 1,
             b"vt" => s.counts.vt += 1,
             b"vn" => s.counts.vn += 1,
             b"f" => {
-                let n = Tokens::new(rest).count() as u64;
+                let n = count_tokens(rest);
                 s.counts.tris += n.saturating_sub(2);
                 if n > 3 {
                     s.polygons += 1;
@@ -177,11 +183,7 @@ fn overflow_line(
     let _ = for_each_line(&buf[chunk.clone()], first_line, |line, no| {
         let (kw, rest) = split_keyword(line);
         if kw == kw_wanted {
-            count += if kw == b"f" {
-                (Tokens::new(rest).count() as u64).saturating_sub(2)
-            } else {
-                1
-            };
+            count += if kw == b"f" { (count_tokens(rest)).saturating_sub(2) } else { 1 };
             if count > limit {
                 found = no;
                 return Err(());
@@ -296,44 +298,51 @@ fn parse_chunk(job: Job<'_>) -> Result<(), LineError> {
     Ok(())
 }
 
-fn parse_position(rest: &[u8]) -> Result<[f64; 3], String> {
-    let mut toks = Tokens::new(rest);
-    let mut p = [0.0f64; 3];
-    for (k, slot) in p.iter_mut().enumerate() {
-        let tok = toks.next().ok_or_else(|| format!("'v' needs 3 coordinates, found {k}"))?;
-        let x = parse_f64(tok)
-            .ok_or_else(|| format!("bad number {} in a 'v' statement", quote(tok)))?;
-        if !x.is_finite() {
-            return Err(format!("non-finite position coordinate {}", quote(tok)));
+/// Reads `N` numbers of a `kw` statement in place; `min` of them are required, the others
+/// default to 0. Tokens after the `N`th are ignored (OBJ allows `v x y z w` and vertex colours).
+#[inline]
+fn parse_numbers<T: fast_float2::FastFloat + Default, const N: usize>(
+    rest: &[u8],
+    kw: &str,
+    min: usize,
+) -> Result<[T; N], String> {
+    let mut out = [T::default(); N];
+    let mut pos = 0;
+    for (k, slot) in out.iter_mut().enumerate() {
+        if !at_token(rest, &mut pos) {
+            if k < min {
+                return Err(format!("'{kw}' needs {min} coordinates, found {k}"));
+            }
+            break;
         }
-        *slot = x;
+        let start = pos;
+        *slot = number_at::<T>(rest, &mut pos).map_err(|()| {
+            format!("bad number {} in a '{kw}' statement", quote(token_at(rest, start)))
+        })?;
     }
-    // Further tokens (w, vertex colours) are accepted and ignored.
+    Ok(out)
+}
+
+#[inline]
+fn parse_position(rest: &[u8]) -> Result<[f64; 3], String> {
+    let p = parse_numbers::<f64, 3>(rest, "v", 3)?;
+    if let Some(bad) = p.iter().find(|x| !x.is_finite()) {
+        return Err(format!("non-finite position coordinate {bad}"));
+    }
     Ok(p)
 }
 
+/// `vt u [v [w]]`: a missing v is 0 (the OBJ default), w is ignored. Non-finite values are kept
+/// as the file says; the metrics report them.
+#[inline]
 fn parse_uv(rest: &[u8]) -> Result<[f64; 2], String> {
-    let mut toks = Tokens::new(rest);
-    let bad = |tok: &[u8]| format!("bad number {} in a 'vt' statement", quote(tok));
-    let u_tok = toks.next().ok_or_else(|| "'vt' needs at least 1 coordinate".to_string())?;
-    let u = parse_f64(u_tok).ok_or_else(|| bad(u_tok))?;
-    // A missing v is 0 (the OBJ default); non-finite values are kept for the metrics to report.
-    let v = match toks.next() {
-        Some(tok) => parse_f64(tok).ok_or_else(|| bad(tok))?,
-        None => 0.0,
-    };
-    Ok([u, v])
+    parse_numbers::<f64, 2>(rest, "vt", 1)
 }
 
+/// Normals are parsed straight to `f32` (through `f64` they could be rounded twice).
+#[inline]
 fn parse_normal(rest: &[u8]) -> Result<[f32; 3], String> {
-    let mut toks = Tokens::new(rest);
-    let mut n = [0.0f32; 3];
-    for (k, slot) in n.iter_mut().enumerate() {
-        let tok = toks.next().ok_or_else(|| format!("'vn' needs 3 coordinates, found {k}"))?;
-        *slot = parse_f32(tok)
-            .ok_or_else(|| format!("bad number {} in a 'vn' statement", quote(tok)))?;
-    }
-    Ok(n)
+    parse_numbers::<f32, 3>(rest, "vn", 3)
 }
 
 /// One resolved face corner.
@@ -368,35 +377,46 @@ fn resolve(raw: i64, so_far: u64, total: u64, what: &str) -> Result<u32, String>
     }
 }
 
+/// Reads the corner `v`, `v/vt`, `v//vn` or `v/vt/vn` starting at `*pos` (after [`at_token`]).
 #[inline]
-fn parse_corner(tok: &[u8], so_far: [u64; 3], total: &Counts) -> Result<Corner, String> {
-    let bad = || format!("bad face vertex {}", quote(tok));
-    let mut parts = tok.split(|&b| b == b'/');
-    let v_s = parts.next().unwrap_or_default();
-    let vt_s = parts.next();
-    let vn_s = parts.next();
-    if parts.next().is_some() {
+fn parse_corner(
+    b: &[u8],
+    pos: &mut usize,
+    so_far: [u64; 3],
+    total: &Counts,
+) -> Result<Corner, String> {
+    let start = *pos;
+    let bad = || format!("bad face vertex {}", quote(token_at(b, start)));
+    let raw_v = index_at(b, pos).ok_or_else(bad)?;
+    let (mut raw_vt, mut raw_vn) = (None, None);
+    if b.get(*pos) == Some(&b'/') {
+        *pos += 1;
+        if b.get(*pos) != Some(&b'/') {
+            raw_vt = Some(index_at(b, pos).ok_or_else(bad)?);
+        }
+        if b.get(*pos) == Some(&b'/') {
+            *pos += 1;
+            raw_vn = Some(index_at(b, pos).ok_or_else(bad)?);
+        }
+    }
+    if b.get(*pos).is_some_and(|&c| !is_blank(c)) {
         return Err(bad());
     }
-    let v = resolve(parse_index(v_s).ok_or_else(bad)?, so_far[0], total.v, "position")?;
-    let vt = match vt_s {
-        None | Some([]) => None,
-        Some(s) => Some(resolve(
-            parse_index(s).ok_or_else(bad)?,
-            so_far[1],
-            total.vt,
-            "texture coordinate",
-        )?),
+    let v = resolve(raw_v, so_far[0], total.v, "position")?;
+    let vt = match raw_vt {
+        Some(r) => Some(resolve(r, so_far[1], total.vt, "texture coordinate")?),
+        None => None,
     };
-    let vn = match vn_s {
-        None | Some([]) => None,
-        Some(s) => Some(resolve(parse_index(s).ok_or_else(bad)?, so_far[2], total.vn, "normal")?),
+    let vn = match raw_vn {
+        Some(r) => Some(resolve(r, so_far[2], total.vn, "normal")?),
+        None => None,
     };
     Ok(Corner { v, vt, vn })
 }
 
 /// Parses the corners of an `f` statement and writes its fan triangles `(c0, ci, ci+1)` to
 /// `out`, corners in file order. Returns the number of triangles.
+#[inline]
 fn parse_face(
     rest: &[u8],
     so_far: [u64; 3],
@@ -407,8 +427,9 @@ fn parse_face(
     let mut n = 0usize;
     let mut first = Corner::default();
     let mut prev = Corner::default();
-    for tok in Tokens::new(rest) {
-        let c = parse_corner(tok, so_far, total)?;
+    let mut pos = 0;
+    while at_token(rest, &mut pos) {
+        let c = parse_corner(rest, &mut pos, so_far, total)?;
         if n == 0 {
             first = c;
         } else if c.vt.is_some() != first.vt.is_some() {
@@ -443,9 +464,13 @@ fn parse_face(
     Ok(n - 2)
 }
 
+/// A statement keyword, how to read its element count, and its plural name for messages.
+type ElementKind = (&'static [u8], fn(&Counts) -> u64, &'static str);
+
 /// Parses a whole OBJ held in memory.
-fn parse(path: &Path, bytes: &[u8], limit: u64) -> Result<Model, IoError> {
-    let chunks = split_chunks(bytes, chunk_target(bytes.len()));
+fn parse(path: &Path, bytes: &[u8], limit: u64, chunk: Option<usize>) -> Result<Model, IoError> {
+    let target = chunk.unwrap_or_else(|| chunk_target(bytes.len())).max(1);
+    let chunks = split_chunks(bytes, target);
     let scans: Vec<ChunkScan> = chunks.par_iter().map(|r| scan_chunk(&bytes[r.clone()])).collect();
 
     // Prefix sums: where each chunk starts, in lines and in elements.
@@ -467,7 +492,7 @@ fn parse(path: &Path, bytes: &[u8], limit: u64) -> Result<Model, IoError> {
     let last_line = total.lines.saturating_sub(1).max(1);
 
     // Element limits: the error names the line where the limit is passed.
-    let kinds: [(&[u8], fn(&Counts) -> u64, &str); 4] = [
+    let kinds: [ElementKind; 4] = [
         (b"v", |c| c.v, "positions"),
         (b"vt", |c| c.vt, "texture coordinates"),
         (b"vn", |c| c.vn, "normals"),

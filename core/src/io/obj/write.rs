@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use super::lex::split_keyword;
 use super::mtl::{is_map_keyword, join_map_line, parent_dir, split_map_args, texture_reference};
 use super::{GroupMarker, ObjExtras};
-use crate::atomic::{is_protected, AtomicFile};
+use crate::atomic::{AtomicFile, is_protected};
 use crate::io::{IoError, WriteOptions};
 use crate::model::{Face, ImageSource, Model, Origin};
 use crate::texture::ImageFormat;
@@ -269,7 +269,8 @@ fn write_obj(
     })?;
 
     // Group markers sorted by face (stable: file order within one face).
-    let mut groups: Vec<&GroupMarker> = extras.map(|e| e.groups.iter().collect()).unwrap_or_default();
+    let mut groups: Vec<&GroupMarker> =
+        extras.map(|e| e.groups.iter().collect()).unwrap_or_default();
     groups.sort_by_key(|g| g.face);
     let faces = &model.faces;
     write_blocks(w, faces, 40, |out, i, f| {
