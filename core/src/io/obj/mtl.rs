@@ -17,6 +17,8 @@ pub(super) struct MaterialTable {
     pub sheets: Vec<Sheet>,
     pub by_name: HashMap<String, MaterialId>,
     by_path: HashMap<PathBuf, SheetId>,
+    /// Libraries already read: naming one twice must not define its materials twice.
+    loaded: Vec<PathBuf>,
     /// `(material name, options)` of `map_Kd` statements that carried options.
     pub map_kd_options: Vec<(String, String)>,
     pub notes: Vec<String>,
@@ -51,6 +53,10 @@ impl MaterialTable {
     /// Reads one MTL file and adds its materials. A material defined again by a later library
     /// keeps its first definition (with a note), so `usemtl` stays unambiguous.
     pub fn load(&mut self, mtl_path: &Path) -> Result<(), IoError> {
+        if self.loaded.iter().any(|p| p == mtl_path) {
+            return Ok(());
+        }
+        self.loaded.push(mtl_path.to_path_buf());
         let bytes = std::fs::read(mtl_path).map_err(|e| IoError::file(mtl_path, e))?;
         let dir = parent_dir(mtl_path);
         // The material being read: (name, extra lines, resolved map_Kd, map_Kd options).

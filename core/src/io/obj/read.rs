@@ -203,6 +203,9 @@ fn load_mtllib(
     line: u64,
     text: &str,
 ) -> Result<(), IoError> {
+    if text.is_empty() {
+        return Err(IoError::line(obj, line, "mtllib without a file name"));
+    }
     let dir = parent_dir(obj);
     let whole = resolve_texture(&dir, text);
     let files: Vec<_> = if whole.is_file() {

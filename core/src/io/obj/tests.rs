@@ -228,6 +228,7 @@ fn bad_input_names_the_line() {
         ("f 99999999999999999999 2 3\n", 5, "bad face vertex"),
         ("\n# only comments\n", 6, "no faces"),
         ("mtllib\tnowhere.mtl\nf 1 2 3\n", 5, "material library 'nowhere.mtl' not found"),
+        ("f 1 2 3\nmtllib \n", 6, "mtllib without a file name"),
     ];
     for &(tail, line, msg) in cases {
         let text = format!("{TRI}{tail}");
@@ -294,8 +295,11 @@ fn several_libraries_on_one_mtllib_line() {
     std::fs::write(dir.path().join("a.mtl"), "newmtl A\nKd 1 1 1\n").unwrap();
     std::fs::write(dir.path().join("b.mtl"), "newmtl B\nKd 0 0 0\n").unwrap();
     let obj = dir.path().join("m.obj");
-    std::fs::write(&obj, "mtllib a.mtl b.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl B\nf 1 2 3\n")
-        .unwrap();
+    std::fs::write(
+        &obj,
+        "mtllib a.mtl b.mtl\nmtllib ./a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl B\nf 1 2 3\n",
+    )
+    .unwrap();
     let m = read(&obj).unwrap();
     assert_eq!(m.materials.len(), 2);
     assert_eq!(m.faces[0].material, Some(MaterialId(1)));
