@@ -262,7 +262,7 @@ fn absolute(path: &Path) -> Option<PathBuf> {
 }
 
 /// `target` written relative to the directory `base` with `/` separators, or `None` when they
-/// share no root (another drive on Windows).
+/// share nothing but the root (or not even that: another drive on Windows).
 pub(super) fn relative_path(target: &Path, base: &Path) -> Option<String> {
     let t = absolute(target)?;
     let b = absolute(base)?;
@@ -272,6 +272,12 @@ pub(super) fn relative_path(target: &Path, base: &Path) -> Option<String> {
         return None;
     }
     let common = tc.iter().zip(&bc).take_while(|(a, b)| a == b).count();
+    // Sharing only the root (`/`, or a drive and its root), `../../../x` is just a clumsier
+    // absolute path that breaks when the output moves; write the absolute one instead.
+    let roots = tc.iter().take_while(|c| matches!(c, Component::Prefix(_) | Component::RootDir));
+    if common <= roots.count() {
+        return None;
+    }
     let mut parts: Vec<String> = Vec::new();
     for _ in common..bc.len() {
         parts.push("..".to_string());
@@ -318,5 +324,7 @@ mod tests {
             "../b/t.png"
         );
         assert_eq!(relative_path(Path::new("/a/t.png"), Path::new("/a")).unwrap(), "t.png");
+        assert_eq!(relative_path(Path::new("/a/t.png"), Path::new("/b/c")), None);
+        assert_eq!(texture_reference(Path::new("/a/t.png"), Path::new("/b/c")), "/a/t.png");
     }
 }
