@@ -84,10 +84,10 @@ pub fn read(path: &Path) -> Result<Model, IoError> {
 /// its original document; any other model gets a fresh document.
 pub fn write(model: &Model, path: &Path, opts: &WriteOptions, binary: bool) -> Result<(), IoError> {
     model.validate_indices().map_err(|m| IoError::invalid(path, format!("model to write: {m}")))?;
-    if let Origin::Gltf(scene) = &model.origin {
-        if writeback::write_back(model, scene, path, opts, binary)? {
-            return Ok(());
-        }
+    if let Origin::Gltf(scene) = &model.origin
+        && writeback::write_back(model, scene, path, opts, binary)?
+    {
+        return Ok(());
     }
     fresh::write(model, path, opts, binary)
 }

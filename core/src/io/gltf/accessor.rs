@@ -163,7 +163,7 @@ impl<'a> Accessor<'a> {
             err(format!("{vctx}: buffer {buffer} does not exist (the file has {})", buffers.len()))
         })?;
         let data = data.bytes();
-        let view_end = view_off.checked_add(view_len).unwrap_or(u64::MAX);
+        let view_end = view_off.saturating_add(view_len);
         if view_end > data.len() as u64 {
             return Err(err(format!(
                 "{vctx}: bytes {view_off}..{view_end} lie outside buffer {buffer} ({} bytes)",

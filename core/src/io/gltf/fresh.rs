@@ -84,9 +84,9 @@ pub(super) fn build(model: &Model, path: &Path, binary: bool) -> Result<(Value, 
             if id == next {
                 vs.count += 1;
                 let p = model.positions[f.v[k].idx()].map(|c| c as f32);
-                for c in 0..3 {
-                    vs.min[c] = vs.min[c].min(p[c]);
-                    vs.max[c] = vs.max[c].max(p[c]);
+                for (c, x) in p.iter().enumerate() {
+                    vs.min[c] = vs.min[c].min(*x);
+                    vs.max[c] = vs.max[c].max(*x);
                 }
                 push_f32s(&mut vs.positions, &p);
                 if let Some(uv) = uv {

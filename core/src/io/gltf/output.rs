@@ -220,6 +220,16 @@ pub(super) fn emit(
 ) -> Result<(), IoError> {
     let mut protect_all = opts.protect.clone();
     protect_all.extend_from_slice(protect);
+    // Checked before the `.bin` is written, so a refused `.gltf` leaves nothing behind.
+    if crate::atomic::is_protected(path, &protect_all) {
+        return Err(IoError::file(
+            path,
+            std::io::Error::new(
+                std::io::ErrorKind::AlreadyExists,
+                format!("refusing to overwrite input file {}", path.display()),
+            ),
+        ));
+    }
     let has_bin = bin.len() > 0;
     let Some(obj) = doc.as_object_mut() else {
         return Err(IoError::invalid(path, "internal: document is not an object"));

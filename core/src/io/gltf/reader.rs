@@ -304,13 +304,13 @@ impl<'a> Reader<'a> {
                     continue;
                 }
                 let material = opt_usize(prim, "material", &ctx).map_err(|e| self.invalid(e))?;
-                if let Some(mi) = material {
-                    if mi >= self.model.materials.len() {
-                        return Err(self.invalid(format!(
-                            "{ctx}: material {mi} does not exist (the file has {})",
-                            self.model.materials.len()
-                        )));
-                    }
+                if let Some(mi) = material
+                    && mi >= self.model.materials.len()
+                {
+                    return Err(self.invalid(format!(
+                        "{ctx}: material {mi} does not exist (the file has {})",
+                        self.model.materials.len()
+                    )));
                 }
                 let xf = material.map_or(UvTransform::identity(0), |mi| transforms[mi]);
                 let key = format!(
@@ -611,7 +611,7 @@ pub(super) fn view_bytes<'a>(
         .ok_or_else(|| err(format!("{ctx}: missing byteLength")))? as u64;
     let data =
         buffers.get(b).ok_or_else(|| err(format!("{ctx}: buffer {b} does not exist")))?.bytes();
-    let end = off.checked_add(len).unwrap_or(u64::MAX);
+    let end = off.saturating_add(len);
     if end > data.len() as u64 {
         return Err(err(format!(
             "{ctx}: bytes {off}..{end} lie outside buffer {b} ({} bytes)",

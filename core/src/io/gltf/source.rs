@@ -169,7 +169,7 @@ fn compression_error(path: &Path, ext: &str, place: &str) -> IoError {
         path,
         format!(
             "{ext} ({place}): compressed geometry cannot be read; decompress the file first, \
-             e.g. `gltf-transform copy IN OUT` (which decodes Draco and meshopt) or re-export \
+             e.g. `gltf-transform cp IN OUT` (which decodes Draco and meshopt) or re-export \
              without compression"
         ),
     )

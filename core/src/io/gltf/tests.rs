@@ -41,7 +41,7 @@ impl Fx {
 
     /// Adds raw bytes as a bufferView; returns its index.
     fn view(&mut self, bytes: &[u8]) -> usize {
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         let off = self.bin.len();
@@ -114,11 +114,11 @@ impl Fx {
         let mut doc = self.doc.clone();
         doc["buffers"] = json!([{"byteLength": self.bin.len()}]);
         let mut js = serde_json::to_vec(&doc).unwrap();
-        while js.len() % 4 != 0 {
+        while !js.len().is_multiple_of(4) {
             js.push(b' ');
         }
         let mut bin = self.bin.clone();
-        while bin.len() % 4 != 0 {
+        while !bin.len().is_multiple_of(4) {
             bin.push(0);
         }
         let total = 12 + 8 + js.len() + 8 + bin.len();
@@ -587,6 +587,20 @@ fn round_trip_glb_to_glb_and_gltf_to_glb() {
 }
 
 #[test]
+fn round_trip_from_data_uri_buffers() {
+    let dir = tempfile::tempdir().unwrap();
+    png(dir.path(), "tex a.png");
+    let p = quad().write_data_uri(dir.path(), "in.gltf");
+    let m = read(&p).unwrap();
+    let out = dir.path().join("o.gltf");
+    write(&m, &out, &WriteOptions::default(), false).unwrap();
+    let m2 = read(&out).unwrap();
+    same_faces(&m, &m2);
+    assert_eq!(scene(&m2).document["buffers"][0]["uri"], "o.bin");
+    assert_eq!(scene(&m2).document["nodes"][0]["name"], "root");
+}
+
+#[test]
 fn write_back_bakes_texture_transform_and_drops_the_extension() {
     let dir = tempfile::tempdir().unwrap();
     let mut fx = quad();
@@ -616,6 +630,10 @@ fn write_back_splits_seams_and_sheets_keeping_face_order() {
     let pa = fx.f32s(&QUAD_POS, "VEC3", 3);
     let uv = fx.f32s(&QUAD_UV, "VEC2", 2);
     fx.prim(json!({"attributes": {"POSITION": pa, "TEXCOORD_0": uv}, "mode": 5, "material": 0}));
+    // A 3-byte colour attribute, which must be copied to the duplicated vertices too.
+    let colors: Vec<u8> = (0..12).collect();
+    let col = fx.accessor(&colors, 5121, "VEC3", 4, true);
+    fx.doc["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = json!(col);
     let p = fx.write_gltf(dir.path(), "in.gltf", "in.bin");
     let mut m = read(&p).unwrap();
     assert_eq!(m.faces.len(), 4);
@@ -643,9 +661,43 @@ fn write_back_splits_seams_and_sheets_keeping_face_order() {
         // 4 original vertices + 3 duplicates for the seam (vertex 3 keeps its single UV).
         let uv_acc = prims[0]["attributes"]["TEXCOORD_0"].as_u64().unwrap() as usize;
         assert_eq!(d["accessors"][uv_acc]["count"], 6);
+        let col_acc = &d["accessors"][prims[0]["attributes"]["COLOR_0"].as_u64().unwrap() as usize];
+        assert_eq!(col_acc["count"], 6);
+        let view = &d["bufferViews"][col_acc["bufferView"].as_u64().unwrap() as usize];
+        assert_eq!(view["byteStride"], 4, "3-byte elements padded to 4");
+        assert_eq!(view["byteLength"], 24);
+        if !binary {
+            // Duplicates 4 and 5 copy the colours of vertices 0 and 2 (the seam of face 1).
+            let bin = std::fs::read(dir.path().join("o.bin")).unwrap();
+            let off = view.get("byteOffset").and_then(Value::as_u64).unwrap_or(0) as usize;
+            let c = &bin[off..off + 24];
+            assert_eq!(&c[16..19], &[0, 1, 2]);
+            assert_eq!(&c[20..23], &[6, 7, 8]);
+        }
         assert_eq!(m2.sheets.len(), 2);
         assert_eq!(m2.materials[1].name, "skin_1");
     }
+}
+
+#[test]
+fn unknown_extension_keeps_all_binary_data() {
+    let dir = tempfile::tempdir().unwrap();
+    png(dir.path(), "tex a.png");
+    let mut fx = quad();
+    fx.doc["extensionsUsed"] = json!(["EXT_something_new"]);
+    fx.doc["extensions"] = json!({"EXT_something_new": {"bufferView": 2}});
+    let p = fx.write_gltf(dir.path(), "in.gltf", "in.bin");
+    let m = read(&p).unwrap();
+    let out = dir.path().join("o.gltf");
+    write(&m, &out, &WriteOptions::default(), false).unwrap();
+    let m2 = read(&out).unwrap();
+    same_faces(&m, &m2);
+    let d = &scene(&m2).document;
+    // Nothing renumbered: the old UV accessor and view stay, new ones are appended.
+    assert_eq!(d["accessors"].as_array().unwrap().len(), 5);
+    assert_eq!(d["bufferViews"].as_array().unwrap().len(), 5);
+    assert_eq!(d["extensions"]["EXT_something_new"]["bufferView"], 2);
+    assert_eq!(d["textures"].as_array().unwrap().len(), 2);
 }
 
 #[test]
@@ -744,5 +796,6 @@ fn writer_refuses_to_overwrite_inputs() {
     assert!(e.to_string().contains("refusing to overwrite"), "{e}");
     let opts = WriteOptions { protect: vec![p.clone()] };
     assert!(write(&m, &p, &opts, false).is_err());
+    assert!(!dir.path().join("in.bin").exists(), "no .bin written for a refused .gltf");
     assert_eq!(read(&p).unwrap().faces.len(), 2, "input intact");
 }

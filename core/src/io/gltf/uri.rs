@@ -89,10 +89,10 @@ fn absolute(p: &Path) -> PathBuf {
         std::env::current_dir().map(|d| d.join(p)).unwrap_or_else(|_| p.to_path_buf())
     };
     // The file may not exist yet: canonicalize its directory and keep the name.
-    if let (Some(dir), Some(name)) = (joined.parent(), joined.file_name()) {
-        if let Ok(d) = dir.canonicalize() {
-            return d.join(name);
-        }
+    if let (Some(dir), Some(name)) = (joined.parent(), joined.file_name())
+        && let Ok(d) = dir.canonicalize()
+    {
+        return d.join(name);
     }
     joined
 }

@@ -153,10 +153,10 @@ fn walk_mut(v: &mut Value, f: &mut impl FnMut(&str, &mut Value)) {
 fn texture_refs(doc: &Value) -> BTreeSet<u64> {
     let mut out = BTreeSet::new();
     walk(doc, &mut |k, v| {
-        if k.ends_with("Texture") {
-            if let Some(i) = v.get("index").and_then(Value::as_u64) {
-                out.insert(i);
-            }
+        if k.ends_with("Texture")
+            && let Some(i) = v.get("index").and_then(Value::as_u64)
+        {
+            out.insert(i);
         }
     });
     out
@@ -167,10 +167,10 @@ fn image_refs(doc: &Value) -> BTreeSet<u64> {
     let mut out = BTreeSet::new();
     if let Some(t) = doc.get("textures") {
         walk(t, &mut |k, v| {
-            if k == "source" {
-                if let Some(i) = v.as_u64() {
-                    out.insert(i);
-                }
+            if k == "source"
+                && let Some(i) = v.as_u64()
+            {
+                out.insert(i);
             }
         });
     }
@@ -181,10 +181,10 @@ fn image_refs(doc: &Value) -> BTreeSet<u64> {
 fn view_refs(doc: &Value) -> BTreeSet<u64> {
     let mut out = BTreeSet::new();
     walk(doc, &mut |k, v| {
-        if k == "bufferView" {
-            if let Some(i) = v.as_u64() {
-                out.insert(i);
-            }
+        if k == "bufferView"
+            && let Some(i) = v.as_u64()
+        {
+            out.insert(i);
         }
     });
     out
@@ -214,10 +214,10 @@ fn remove_entries(doc: &mut Value, array: &str, dead: &BTreeSet<u64>) -> Vec<Opt
 }
 
 fn remap(v: &mut Value, map: &[Option<u64>]) {
-    if let Some(i) = v.as_u64() {
-        if let Some(Some(n)) = map.get(i as usize) {
-            *v = json!(n);
-        }
+    if let Some(i) = v.as_u64()
+        && let Some(Some(n)) = map.get(i as usize)
+    {
+        *v = json!(n);
     }
 }
 
@@ -396,10 +396,10 @@ pub(super) fn write_back(
     let span_of: HashMap<(u32, u32), usize> =
         scene.primitives.iter().enumerate().map(|(i, s)| ((s.mesh, s.primitive), i)).collect();
     let mut own = |v: Option<&Value>, o: Owner| {
-        if let Some(i) = v.and_then(Value::as_u64) {
-            if let Some(slot) = owner.get_mut(i as usize) {
-                slot.add(o);
-            }
+        if let Some(i) = v.and_then(Value::as_u64)
+            && let Some(slot) = owner.get_mut(i as usize)
+        {
+            slot.add(o);
         }
     };
     for (m, mesh) in orig.get("meshes").and_then(Value::as_array).into_iter().flatten().enumerate()
@@ -553,10 +553,10 @@ pub(super) fn write_back(
             let plan = &spans[si];
             let mut base = prim;
             base["attributes"] = Value::Object(block.attrs.clone());
-            if !block.extras.is_empty() {
-                if let Some(t) = &block.targets {
-                    base["targets"] = t.clone();
-                }
+            if !block.extras.is_empty()
+                && let Some(t) = &block.targets
+            {
+                base["targets"] = t.clone();
             }
             let set_material = |p: &mut Value, m: Option<MaterialId>| match (m, p.as_object_mut()) {
                 (Some(m), _) => p["material"] = json!(m.0),
@@ -616,6 +616,7 @@ pub(super) fn write_back(
     let orig_images = orig.get("images").and_then(Value::as_array).map_or(0, Vec::len);
     let orig_mats = orig.get("materials").and_then(Value::as_array).map_or(0, Vec::len);
     let mut sheet_texture: HashMap<SheetId, usize> = HashMap::new();
+    let mut default_sampler: Option<Value> = None;
     for (i, mat) in model.materials.iter().enumerate() {
         let mut mj = if i < orig_mats {
             let mut mj = orig["materials"][i].clone();
@@ -666,7 +667,10 @@ pub(super) fn write_back(
                             .and_then(|ti| {
                                 orig.get("textures")?.get(ti as usize)?.get("sampler").cloned()
                             });
-                        if let Some(s) = old_sampler {
+                        // A new material has no texture of its own: it takes the sampler of the
+                        // first original base-colour texture, so all sheets filter alike.
+                        if let Some(s) = old_sampler.or_else(|| default_sampler.clone()) {
+                            default_sampler.get_or_insert_with(|| s.clone());
                             t["sampler"] = s;
                         }
                         let textures = array_mut(&mut doc, "textures");
@@ -731,10 +735,10 @@ pub(super) fn write_back(
         for key in ["extensionsUsed", "extensionsRequired"] {
             if let Some(Value::Array(l)) = doc.get_mut(key) {
                 l.retain(|e| e.as_str() != Some("KHR_texture_transform"));
-                if l.is_empty() {
-                    if let Some(o) = doc.as_object_mut() {
-                        o.remove(key);
-                    }
+                if l.is_empty()
+                    && let Some(o) = doc.as_object_mut()
+                {
+                    o.remove(key);
                 }
             }
         }
@@ -750,10 +754,10 @@ pub(super) fn write_back(
         if !dead.is_empty() {
             let map = remove_entries(&mut doc, "textures", &dead);
             walk_mut(&mut doc, &mut |k, v| {
-                if k.ends_with("Texture") {
-                    if let Some(i) = v.get_mut("index") {
-                        remap(i, &map);
-                    }
+                if k.ends_with("Texture")
+                    && let Some(i) = v.get_mut("index")
+                {
+                    remap(i, &map);
                 }
             });
         }
