@@ -18,6 +18,7 @@ mod accessor;
 mod fresh;
 mod output;
 mod reader;
+mod refs;
 mod source;
 mod uri;
 mod writeback;

@@ -136,7 +136,7 @@ pub(super) fn read(path: &Path) -> Result<Model, IoError> {
     let nodes = read_nodes(path, json)?;
     if let Some(req) = json.get("extensionsRequired").and_then(Value::as_array) {
         for e in req.iter().filter_map(Value::as_str) {
-            if !super::writeback::is_known_extension(e) {
+            if !super::refs::is_known_extension(e) {
                 r.model.notes.push(format!(
                     "required extension {e} is not understood; it was ignored while reading"
                 ));

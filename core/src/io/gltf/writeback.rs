@@ -33,7 +33,7 @@
 //! re-baked; a new material (one the model has beyond the file's materials) reads texture
 //! coordinate set 0.
 
-use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
 use serde_json::{Map, Value, json};
@@ -41,54 +41,13 @@ use serde_json::{Map, Value, json};
 use super::accessor::{Accessor, opt_usize};
 use super::output::{self, Bin, Piece};
 use super::reader::{for_each_triangle, texture_info_transform};
+use super::refs::{self, Owner, array_mut, remap, walk, walk_mut};
 use super::source::{self, BufferData};
 use super::{GltfScene, uri};
 use crate::index::{MaterialId, SheetId};
 use crate::io::{IoError, WriteOptions};
 use crate::model::Model;
 use crate::texture::coords::flip_v;
-
-/// Whether extension `name` is known to reference accessors, buffer views, images and textures
-/// only through the conventional members this writer renumbers (`bufferView`, textureInfo
-/// `index`, texture `source`) or not at all.
-pub(super) fn is_known_extension(name: &str) -> bool {
-    name.starts_with("KHR_materials_")
-        || matches!(
-            name,
-            "KHR_texture_transform"
-                | "KHR_lights_punctual"
-                | "KHR_mesh_quantization"
-                | "KHR_texture_basisu"
-                | "EXT_texture_webp"
-                | "EXT_texture_avif"
-                | "MSFT_texture_dds"
-                | "KHR_xmp_json_ld"
-                | "KHR_xmp"
-                | "EXT_mesh_gpu_instancing"
-        )
-}
-
-/// Who references an accessor.
-#[derive(Clone, Debug, PartialEq)]
-enum Owner {
-    Nobody,
-    /// Only attribute `name` (or `targets/i/name`) of the primitives of one vertex block.
-    Attr(usize, String),
-    /// Only the indices of one primitive span.
-    Indices(usize),
-    /// Several users, or one this writer does not track.
-    Shared,
-}
-
-impl Owner {
-    fn add(&mut self, o: Owner) {
-        *self = match std::mem::replace(self, Owner::Nobody) {
-            Owner::Nobody => o,
-            cur if cur == o => cur,
-            _ => Owner::Shared,
-        };
-    }
-}
 
 /// A block of glTF vertices shared by the primitives that use the same attribute accessors.
 struct BlockPlan {
@@ -104,121 +63,13 @@ struct BlockPlan {
     targets: Option<Value>,
 }
 
+/// The plan for one primitive span.
 struct SpanPlan {
     /// Output vertex of every corner, in face order.
     corners: Vec<u32>,
     remapped: bool,
     /// `Some(m)` when every face has material `m`; `None` when mixed or empty.
     uniform: Option<Option<MaterialId>>,
-}
-
-/// Accessor helper: a JSON array of the document as mutable vector.
-fn array_mut<'a>(doc: &'a mut Value, key: &str) -> &'a mut Vec<Value> {
-    if !doc.get(key).is_some_and(Value::is_array) {
-        doc[key] = json!([]);
-    }
-    match doc.get_mut(key) {
-        Some(Value::Array(a)) => a,
-        _ => unreachable!("just made an array"),
-    }
-}
-
-fn walk(v: &Value, f: &mut impl FnMut(&str, &Value)) {
-    match v {
-        Value::Object(m) => {
-            for (k, x) in m {
-                f(k, x);
-                walk(x, f);
-            }
-        }
-        Value::Array(a) => a.iter().for_each(|x| walk(x, f)),
-        _ => {}
-    }
-}
-
-fn walk_mut(v: &mut Value, f: &mut impl FnMut(&str, &mut Value)) {
-    match v {
-        Value::Object(m) => {
-            for (k, x) in m.iter_mut() {
-                f(k, x);
-                walk_mut(x, f);
-            }
-        }
-        Value::Array(a) => a.iter_mut().for_each(|x| walk_mut(x, f)),
-        _ => {}
-    }
-}
-
-/// Texture indices referenced by textureInfo objects (members named `*Texture` with an `index`).
-fn texture_refs(doc: &Value) -> BTreeSet<u64> {
-    let mut out = BTreeSet::new();
-    walk(doc, &mut |k, v| {
-        if k.ends_with("Texture")
-            && let Some(i) = v.get("index").and_then(Value::as_u64)
-        {
-            out.insert(i);
-        }
-    });
-    out
-}
-
-/// Image indices referenced by textures (`source`, also inside texture extensions).
-fn image_refs(doc: &Value) -> BTreeSet<u64> {
-    let mut out = BTreeSet::new();
-    if let Some(t) = doc.get("textures") {
-        walk(t, &mut |k, v| {
-            if k == "source"
-                && let Some(i) = v.as_u64()
-            {
-                out.insert(i);
-            }
-        });
-    }
-    out
-}
-
-/// Buffer views referenced anywhere by a `bufferView` member.
-fn view_refs(doc: &Value) -> BTreeSet<u64> {
-    let mut out = BTreeSet::new();
-    walk(doc, &mut |k, v| {
-        if k == "bufferView"
-            && let Some(i) = v.as_u64()
-        {
-            out.insert(i);
-        }
-    });
-    out
-}
-
-/// Removes the entries of `array` listed in `dead` and returns the old → new index map.
-fn remove_entries(doc: &mut Value, array: &str, dead: &BTreeSet<u64>) -> Vec<Option<u64>> {
-    let list = array_mut(doc, array);
-    let mut map = Vec::with_capacity(list.len());
-    let mut next = 0u64;
-    for i in 0..list.len() as u64 {
-        if dead.contains(&i) {
-            map.push(None);
-        } else {
-            map.push(Some(next));
-            next += 1;
-        }
-    }
-    let old = std::mem::take(list);
-    *list = old
-        .into_iter()
-        .enumerate()
-        .filter(|(i, _)| !dead.contains(&(*i as u64)))
-        .map(|(_, v)| v)
-        .collect();
-    map
-}
-
-fn remap(v: &mut Value, map: &[Option<u64>]) {
-    if let Some(i) = v.as_u64()
-        && let Some(Some(n)) = map.get(i as usize)
-    {
-        *v = json!(n);
-    }
 }
 
 /// Tries to write `model` into its original document. Returns `Ok(false)` when the faces no
@@ -248,203 +99,15 @@ pub(super) fn write_back(
 
     let doc_src = source::open_document(src)?;
     let sources = source::load_buffers(src, orig, &doc_src)?;
-    let prim_json = |s: &super::PrimitiveSpan| -> Option<&Value> {
-        orig.get("meshes")?.get(s.mesh as usize)?.get("primitives")?.get(s.primitive as usize)
+    let Some(Plan { mut blocks, spans, span_block }) = plan(model, scene, &sources, path)? else {
+        return Ok(false);
     };
-
-    // Group spans into vertex blocks and check positions and corners.
-    let mut block_of_base: BTreeMap<u32, usize> = BTreeMap::new();
-    let mut blocks: Vec<BlockPlan> = Vec::new();
-    let mut span_block = Vec::with_capacity(scene.primitives.len());
-    for (si, s) in scene.primitives.iter().enumerate() {
-        let Some(prim) = prim_json(s) else { return Ok(false) };
-        let Some(attrs) = prim.get("attributes").and_then(Value::as_object) else {
-            return Ok(false);
-        };
-        let b = match block_of_base.get(&s.vertex_base) {
-            Some(&b) => b,
-            None => {
-                let Some(pi) = attrs.get("POSITION").and_then(Value::as_u64) else {
-                    return Ok(false);
-                };
-                let pos = Accessor::new(src, orig, &sources, pi as usize)?;
-                if pos.count != s.vertex_count as usize {
-                    return Ok(false);
-                }
-                let base = s.vertex_base as usize;
-                for i in 0..pos.count {
-                    let p = [pos.get(i, 0), pos.get(i, 1), pos.get(i, 2)];
-                    if model.positions[base + i] != p {
-                        return Ok(false);
-                    }
-                }
-                blocks.push(BlockPlan {
-                    base: s.vertex_base,
-                    count: s.vertex_count,
-                    spans: Vec::new(),
-                    uvs: Vec::new(),
-                    any_uv: false,
-                    extras: Vec::new(),
-                    attrs: attrs.clone(),
-                    targets: prim.get("targets").cloned(),
-                });
-                block_of_base.insert(s.vertex_base, blocks.len() - 1);
-                blocks.len() - 1
-            }
-        };
-        blocks[b].spans.push(si);
-        span_block.push(b);
-        let ctx = format!("meshes[{}].primitives[{}]", s.mesh, s.primitive);
-        let indices =
-            match opt_usize(prim, "indices", &ctx).map_err(|m| IoError::invalid(src, m))? {
-                Some(i) => Some(Accessor::new(src, orig, &sources, i)?),
-                None => None,
-            };
-        let mut f = s.first_face as usize;
-        let mut same = true;
-        for_each_triangle(src, &ctx, s.mode, indices.as_ref(), s.vertex_count as usize, |t| {
-            if same {
-                let v = model.faces[f].v;
-                same = (0..3).all(|k| v[k].0 == s.vertex_base + t[k]);
-            }
-            f += 1;
-        })?;
-        if !same || f != (s.first_face + s.face_count) as usize {
-            return Ok(false);
-        }
-    }
-
-    // Per block: the UV of every vertex, duplicating vertices whose corners disagree.
-    let mut spans: Vec<SpanPlan> = Vec::with_capacity(scene.primitives.len());
-    for _ in &scene.primitives {
-        spans.push(SpanPlan { corners: Vec::new(), remapped: false, uniform: None });
-    }
-    for block in &mut blocks {
-        let n = block.count as usize;
-        let mut assigned: Vec<Option<[f64; 2]>> = vec![None; n];
-        let mut dup: HashMap<(u32, u64, u64), u32> = HashMap::new();
-        let mut extra_uvs: Vec<[f64; 2]> = Vec::new();
-        for &si in &block.spans {
-            let s = &scene.primitives[si];
-            let plan = &mut spans[si];
-            plan.corners.reserve(s.face_count as usize * 3);
-            let faces = &model.faces[s.first_face as usize..(s.first_face + s.face_count) as usize];
-            let mut mixed = false;
-            for (j, face) in faces.iter().enumerate() {
-                if j == 0 {
-                    plan.uniform = Some(face.material);
-                } else if plan.uniform != Some(face.material) {
-                    mixed = true;
-                }
-                for k in 0..3 {
-                    let gv = face.v[k].0 - block.base;
-                    let out = match face.uv {
-                        None => gv,
-                        Some(t) => {
-                            let uv = model.uvs[t[k].idx()];
-                            block.any_uv = true;
-                            match assigned[gv as usize] {
-                                None => {
-                                    assigned[gv as usize] = Some(uv);
-                                    gv
-                                }
-                                Some(a)
-                                    if a[0].to_bits() == uv[0].to_bits()
-                                        && a[1].to_bits() == uv[1].to_bits() =>
-                                {
-                                    gv
-                                }
-                                Some(_) => {
-                                    plan.remapped = true;
-                                    let key = (gv, uv[0].to_bits(), uv[1].to_bits());
-                                    let next = (n + block.extras.len()) as u32;
-                                    let id = *dup.entry(key).or_insert(next);
-                                    if id == next {
-                                        block.extras.push(gv);
-                                        extra_uvs.push(uv);
-                                    }
-                                    id
-                                }
-                            }
-                        }
-                    };
-                    plan.corners.push(out);
-                }
-            }
-            if mixed {
-                plan.uniform = None;
-            }
-        }
-        if n + block.extras.len() > u32::MAX as usize {
-            return Err(IoError::unsupported(
-                path,
-                "splitting UV seams would exceed 2^32 vertices",
-            ));
-        }
-        block.uvs =
-            assigned.into_iter().map(|a| a.unwrap_or([0.0, 0.0])).chain(extra_uvs).collect();
-    }
 
     // Who references each accessor, to know which ones may be overwritten in place.
-    let known = ["extensionsUsed", "extensionsRequired"].iter().all(|k| {
-        orig.get(*k)
-            .and_then(Value::as_array)
-            .is_none_or(|l| l.iter().all(|e| e.as_str().is_some_and(is_known_extension)))
-    });
-    let n_acc = orig.get("accessors").and_then(Value::as_array).map_or(0, Vec::len);
-    let mut owner = vec![if known { Owner::Nobody } else { Owner::Shared }; n_acc];
+    let known = refs::all_extensions_known(orig);
     let span_of: HashMap<(u32, u32), usize> =
         scene.primitives.iter().enumerate().map(|(i, s)| ((s.mesh, s.primitive), i)).collect();
-    let mut own = |v: Option<&Value>, o: Owner| {
-        if let Some(i) = v.and_then(Value::as_u64)
-            && let Some(slot) = owner.get_mut(i as usize)
-        {
-            slot.add(o);
-        }
-    };
-    for (m, mesh) in orig.get("meshes").and_then(Value::as_array).into_iter().flatten().enumerate()
-    {
-        for (p, prim) in
-            mesh.get("primitives").and_then(Value::as_array).into_iter().flatten().enumerate()
-        {
-            let span = span_of.get(&(m as u32, p as u32)).copied();
-            let block = span.map(|s| span_block[s]);
-            for (name, a) in prim.get("attributes").and_then(Value::as_object).into_iter().flatten()
-            {
-                own(Some(a), block.map_or(Owner::Shared, |b| Owner::Attr(b, name.clone())));
-            }
-            for (t, target) in
-                prim.get("targets").and_then(Value::as_array).into_iter().flatten().enumerate()
-            {
-                for (name, a) in target.as_object().into_iter().flatten() {
-                    own(
-                        Some(a),
-                        block.map_or(Owner::Shared, |b| {
-                            Owner::Attr(b, format!("targets/{t}/{name}"))
-                        }),
-                    );
-                }
-            }
-            own(prim.get("indices"), span.map_or(Owner::Shared, Owner::Indices));
-        }
-    }
-    for anim in orig.get("animations").and_then(Value::as_array).into_iter().flatten() {
-        for s in anim.get("samplers").and_then(Value::as_array).into_iter().flatten() {
-            own(s.get("input"), Owner::Shared);
-            own(s.get("output"), Owner::Shared);
-        }
-    }
-    for skin in orig.get("skins").and_then(Value::as_array).into_iter().flatten() {
-        own(skin.get("inverseBindMatrices"), Owner::Shared);
-    }
-    for node in orig.get("nodes").and_then(Value::as_array).into_iter().flatten() {
-        let inst = node.get("extensions").and_then(|e| e.get("EXT_mesh_gpu_instancing"));
-        for a in
-            inst.and_then(|i| i.get("attributes")).and_then(Value::as_object).into_iter().flatten()
-        {
-            own(Some(a.1), Owner::Shared);
-        }
-    }
+    let mut owner = refs::accessor_owners(orig, known, &span_of, &span_block);
 
     let mut doc = orig.clone();
     let orig_views = orig.get("bufferViews").and_then(Value::as_array).map_or(0, Vec::len);
@@ -611,123 +274,16 @@ pub(super) fn write_back(
         doc["meshes"][m]["primitives"] = Value::Array(new_prims);
     }
 
-    // Materials, textures and images of the current sheets.
-    let out_dir = source::base_dir(path);
-    let orig_images = orig.get("images").and_then(Value::as_array).map_or(0, Vec::len);
-    let orig_mats = orig.get("materials").and_then(Value::as_array).map_or(0, Vec::len);
-    let mut sheet_texture: HashMap<SheetId, usize> = HashMap::new();
-    let mut default_sampler: Option<Value> = None;
-    for (i, mat) in model.materials.iter().enumerate() {
-        let mut mj = if i < orig_mats {
-            let mut mj = orig["materials"][i].clone();
-            if mj.get("name").is_some() || mat.name != format!("material{i}") {
-                mj["name"] = json!(mat.name);
-            }
-            mj
-        } else {
-            json!({"name": mat.name, "pbrMetallicRoughness": {"metallicFactor": 0.0, "roughnessFactor": 1.0}})
-        };
-        if !mj.get("pbrMetallicRoughness").is_some_and(Value::is_object) {
-            mj["pbrMetallicRoughness"] = json!({});
-        }
-        let old_info = mj["pbrMetallicRoughness"].get("baseColorTexture").cloned();
-        match mat.sheet {
-            Some(sheet) => {
-                let sheet_data = model.sheets.get(sheet.idx()).ok_or_else(|| {
-                    IoError::invalid(path, format!("material {i}: sheet {sheet} does not exist"))
-                })?;
-                let tex = match sheet_texture.get(&sheet) {
-                    Some(&t) => t,
-                    None => {
-                        let mut img = Map::new();
-                        if let crate::model::ImageSource::Embedded { name, .. } = &sheet_data.image
-                        {
-                            img.insert("name".into(), json!(name));
-                        }
-                        output::set_image_source(
-                            &mut img,
-                            &sheet_data.image,
-                            &out_dir,
-                            binary,
-                            &mut newbin,
-                            &mut newviews,
-                        )?;
-                        // The image's view was numbered in `newviews`; shift it past the originals.
-                        if let Some(v) = img.get("bufferView").and_then(Value::as_u64) {
-                            img.insert("bufferView".into(), json!(v as usize + orig_views));
-                        }
-                        let images = array_mut(&mut doc, "images");
-                        images.push(Value::Object(img));
-                        let image = images.len() - 1;
-                        let mut t = json!({"source": image});
-                        let old_sampler = old_info
-                            .as_ref()
-                            .and_then(|o| o.get("index"))
-                            .and_then(Value::as_u64)
-                            .and_then(|ti| {
-                                orig.get("textures")?.get(ti as usize)?.get("sampler").cloned()
-                            });
-                        // A new material has no texture of its own: it takes the sampler of the
-                        // first original base-colour texture, so all sheets filter alike.
-                        if let Some(s) = old_sampler.or_else(|| default_sampler.clone()) {
-                            default_sampler.get_or_insert_with(|| s.clone());
-                            t["sampler"] = s;
-                        }
-                        let textures = array_mut(&mut doc, "textures");
-                        textures.push(t);
-                        sheet_texture.insert(sheet, textures.len() - 1);
-                        textures.len() - 1
-                    }
-                };
-                let set = match &old_info {
-                    Some(o) if i < orig_mats => {
-                        texture_info_transform(o, "baseColorTexture").map_or(0, |x| x.set)
-                    }
-                    _ => 0,
-                };
-                let mut info =
-                    old_info.clone().filter(Value::is_object).unwrap_or_else(|| json!({}));
-                info["index"] = json!(tex);
-                if let Some(o) = info.as_object_mut() {
-                    o.remove("texCoord");
-                    if let Some(Value::Object(e)) = o.get_mut("extensions") {
-                        e.remove("KHR_texture_transform");
-                        if e.is_empty() {
-                            o.remove("extensions");
-                        }
-                    }
-                }
-                if set != 0 {
-                    info["texCoord"] = json!(set);
-                }
-                mj["pbrMetallicRoughness"]["baseColorTexture"] = info;
-            }
-            None => {
-                if let Some(o) = mj["pbrMetallicRoughness"].as_object_mut() {
-                    o.remove("baseColorTexture");
-                }
-            }
-        }
-        let mats = array_mut(&mut doc, "materials");
-        if i < mats.len() {
-            mats[i] = mj;
-        } else {
-            mats.push(mj);
-        }
-    }
-
-    // Original external image URIs are made relative to the output directory.
-    let src_dir = source::base_dir(src);
-    for k in 0..orig_images {
-        let Some(u) = doc["images"][k].get("uri").and_then(Value::as_str) else { continue };
-        if u.starts_with("data:") {
-            continue;
-        }
-        let rel = uri::percent_decode(u)
-            .map_err(|m| IoError::invalid(src, format!("images[{k}]: {m}")))?;
-        doc["images"][k]["uri"] = json!(uri::relative_uri(&out_dir, &src_dir.join(rel)));
-    }
-
+    rewrite_materials(
+        model,
+        scene,
+        &mut doc,
+        path,
+        binary,
+        &mut newbin,
+        &mut newviews,
+        orig_views,
+    )?;
     // KHR_texture_transform is no longer listed when nothing uses it any more.
     let mut still_used = false;
     walk(&doc, &mut |k, _| still_used |= k == "KHR_texture_transform");
@@ -745,99 +301,9 @@ pub(super) fn write_back(
     }
 
     // Drop textures, images and buffer views that this rewrite left unreferenced.
-    let mut view_map: Vec<Option<u64>> =
-        (0..(orig_views + newviews.len()) as u64).map(Some).collect();
-    if known {
-        let before = texture_refs(orig);
-        let after = texture_refs(&doc);
-        let dead: BTreeSet<u64> = before.difference(&after).copied().collect();
-        if !dead.is_empty() {
-            let map = remove_entries(&mut doc, "textures", &dead);
-            walk_mut(&mut doc, &mut |k, v| {
-                if k.ends_with("Texture")
-                    && let Some(i) = v.get_mut("index")
-                {
-                    remap(i, &map);
-                }
-            });
-        }
-        let before = image_refs(orig);
-        let after = image_refs(&doc);
-        let dead: BTreeSet<u64> = before.difference(&after).copied().collect();
-        if !dead.is_empty() {
-            let map = remove_entries(&mut doc, "images", &dead);
-            if let Some(t) = doc.get_mut("textures") {
-                walk_mut(t, &mut |k, v| {
-                    if k == "source" {
-                        remap(v, &map);
-                    }
-                });
-            }
-        }
-        let before = view_refs(orig);
-        let after = view_refs(&doc);
-        let dead: BTreeSet<u64> =
-            before.difference(&after).filter(|&&i| (i as usize) < orig_views).copied().collect();
-        let mut next = 0u64;
-        for (i, slot) in view_map.iter_mut().enumerate() {
-            if dead.contains(&(i as u64)) {
-                *slot = None;
-            } else {
-                *slot = Some(next);
-                next += 1;
-            }
-        }
-    }
+    let view_map = refs::compact(orig, &mut doc, known, orig_views, newviews.len());
 
-    // The output buffer: the kept original views (each keeping its offset modulo 4, which
-    // accessor alignment depends on), then the new data.
-    let mut bin = Bin::default();
-    let mut views: Vec<Value> = Vec::new();
-    let orig_view_list =
-        orig.get("bufferViews").and_then(Value::as_array).cloned().unwrap_or_default();
-    for (i, mut view) in orig_view_list.into_iter().enumerate() {
-        if view_map[i].is_none() {
-            continue;
-        }
-        let ctx = format!("bufferViews[{i}]");
-        let e = |m: String| IoError::invalid(src, m);
-        let b = opt_usize(&view, "buffer", &ctx)
-            .map_err(e)?
-            .ok_or_else(|| e(format!("{ctx}: missing buffer")))?;
-        let off = opt_usize(&view, "byteOffset", &ctx).map_err(e)?.unwrap_or(0);
-        let len = opt_usize(&view, "byteLength", &ctx)
-            .map_err(e)?
-            .ok_or_else(|| e(format!("{ctx}: missing byteLength")))?;
-        let data = sources.get(b).ok_or_else(|| e(format!("{ctx}: buffer {b} does not exist")))?;
-        if off.checked_add(len).is_none_or(|end| end > data.bytes().len()) {
-            return Err(e(format!(
-                "{ctx}: bytes {off}..{} lie outside buffer {b}",
-                off.saturating_add(len)
-            )));
-        }
-        let at = bin.push(Piece::Source { buffer: b, start: off, len }, 4, (off % 4) as u64);
-        view["buffer"] = json!(0);
-        view["byteOffset"] = json!(at);
-        views.push(view);
-    }
-    let base = bin.append(newbin);
-    for mut view in newviews {
-        let off = view.get("byteOffset").and_then(Value::as_u64).unwrap_or(0);
-        view["byteOffset"] = json!(off + base);
-        views.push(view);
-    }
-    walk_mut(&mut doc, &mut |k, v| {
-        if k == "bufferView" {
-            remap(v, &view_map);
-        }
-    });
-    if let Some(o) = doc.as_object_mut() {
-        if views.is_empty() {
-            o.remove("bufferViews");
-        } else {
-            o.insert("bufferViews".into(), Value::Array(views));
-        }
-    }
+    let bin = layout_buffer(scene, &mut doc, &sources, &view_map, newbin, newviews)?;
     let protect: Vec<PathBuf> = sources.iter().filter_map(|b| b.file.clone()).collect();
     output::emit(doc, bin, &sources, path, opts, binary, &protect)?;
     Ok(true)
@@ -890,4 +356,360 @@ fn expand(
     }
     acc["bufferView"] = json!(orig_views + v);
     Ok(acc)
+}
+
+/// Points every material at the texture of its current sheet (one new texture and image per
+/// sheet, KHR_texture_transform dropped since the UVs are baked), and makes the original
+/// external image URIs relative to the output directory.
+#[allow(clippy::too_many_arguments)]
+fn rewrite_materials(
+    model: &Model,
+    scene: &GltfScene,
+    doc: &mut Value,
+    path: &Path,
+    binary: bool,
+    newbin: &mut Bin,
+    newviews: &mut Vec<Value>,
+    orig_views: usize,
+) -> Result<(), IoError> {
+    let orig = &scene.document;
+    let src = &scene.source;
+    // Materials, textures and images of the current sheets.
+    let out_dir = source::base_dir(path);
+    let orig_images = orig.get("images").and_then(Value::as_array).map_or(0, Vec::len);
+    let orig_mats = orig.get("materials").and_then(Value::as_array).map_or(0, Vec::len);
+    let mut sheet_texture: HashMap<SheetId, usize> = HashMap::new();
+    let mut default_sampler: Option<Value> = None;
+    for (i, mat) in model.materials.iter().enumerate() {
+        let mut mj = if i < orig_mats {
+            let mut mj = orig["materials"][i].clone();
+            if mj.get("name").is_some() || mat.name != format!("material{i}") {
+                mj["name"] = json!(mat.name);
+            }
+            mj
+        } else {
+            json!({"name": mat.name, "pbrMetallicRoughness": {"metallicFactor": 0.0, "roughnessFactor": 1.0}})
+        };
+        if !mj.get("pbrMetallicRoughness").is_some_and(Value::is_object) {
+            mj["pbrMetallicRoughness"] = json!({});
+        }
+        let old_info = mj["pbrMetallicRoughness"].get("baseColorTexture").cloned();
+        match mat.sheet {
+            Some(sheet) => {
+                let sheet_data = model.sheets.get(sheet.idx()).ok_or_else(|| {
+                    IoError::invalid(path, format!("material {i}: sheet {sheet} does not exist"))
+                })?;
+                let tex = match sheet_texture.get(&sheet) {
+                    Some(&t) => t,
+                    None => {
+                        let mut img = Map::new();
+                        if let crate::model::ImageSource::Embedded { name, .. } = &sheet_data.image
+                        {
+                            img.insert("name".into(), json!(name));
+                        }
+                        output::set_image_source(
+                            &mut img,
+                            &sheet_data.image,
+                            &out_dir,
+                            binary,
+                            newbin,
+                            newviews,
+                        )?;
+                        // The image's view was numbered in `newviews`; shift it past the originals.
+                        if let Some(v) = img.get("bufferView").and_then(Value::as_u64) {
+                            img.insert("bufferView".into(), json!(v as usize + orig_views));
+                        }
+                        let images = array_mut(doc, "images");
+                        images.push(Value::Object(img));
+                        let image = images.len() - 1;
+                        let mut t = json!({"source": image});
+                        let old_sampler = old_info
+                            .as_ref()
+                            .and_then(|o| o.get("index"))
+                            .and_then(Value::as_u64)
+                            .and_then(|ti| {
+                                orig.get("textures")?.get(ti as usize)?.get("sampler").cloned()
+                            });
+                        // A new material has no texture of its own: it takes the sampler of the
+                        // first original base-colour texture, so all sheets filter alike.
+                        if let Some(s) = old_sampler.or_else(|| default_sampler.clone()) {
+                            default_sampler.get_or_insert_with(|| s.clone());
+                            t["sampler"] = s;
+                        }
+                        let textures = array_mut(doc, "textures");
+                        textures.push(t);
+                        sheet_texture.insert(sheet, textures.len() - 1);
+                        textures.len() - 1
+                    }
+                };
+                let set = match &old_info {
+                    Some(o) if i < orig_mats => {
+                        texture_info_transform(o, "baseColorTexture").map_or(0, |x| x.set)
+                    }
+                    _ => 0,
+                };
+                let mut info =
+                    old_info.clone().filter(Value::is_object).unwrap_or_else(|| json!({}));
+                info["index"] = json!(tex);
+                if let Some(o) = info.as_object_mut() {
+                    o.remove("texCoord");
+                    if let Some(Value::Object(e)) = o.get_mut("extensions") {
+                        e.remove("KHR_texture_transform");
+                        if e.is_empty() {
+                            o.remove("extensions");
+                        }
+                    }
+                }
+                if set != 0 {
+                    info["texCoord"] = json!(set);
+                }
+                mj["pbrMetallicRoughness"]["baseColorTexture"] = info;
+            }
+            None => {
+                if let Some(o) = mj["pbrMetallicRoughness"].as_object_mut() {
+                    o.remove("baseColorTexture");
+                }
+            }
+        }
+        let mats = array_mut(doc, "materials");
+        if i < mats.len() {
+            mats[i] = mj;
+        } else {
+            mats.push(mj);
+        }
+    }
+
+    // Original external image URIs are made relative to the output directory.
+    let src_dir = source::base_dir(src);
+    for k in 0..orig_images {
+        let Some(u) = doc["images"][k].get("uri").and_then(Value::as_str) else { continue };
+        if u.starts_with("data:") {
+            continue;
+        }
+        let rel = uri::percent_decode(u)
+            .map_err(|m| IoError::invalid(src, format!("images[{k}]: {m}")))?;
+        doc["images"][k]["uri"] = json!(uri::relative_uri(&out_dir, &src_dir.join(rel)));
+    }
+
+    Ok(())
+}
+
+/// Lays out the output buffer: the kept original views (each keeping its offset modulo 4, which
+/// accessor alignment depends on), then the new data; renumbers every `bufferView` member.
+fn layout_buffer(
+    scene: &GltfScene,
+    doc: &mut Value,
+    sources: &[BufferData],
+    view_map: &[Option<u64>],
+    newbin: Bin,
+    newviews: Vec<Value>,
+) -> Result<Bin, IoError> {
+    let orig = &scene.document;
+    let src = &scene.source;
+    let mut bin = Bin::default();
+    let mut views: Vec<Value> = Vec::new();
+    let orig_view_list =
+        orig.get("bufferViews").and_then(Value::as_array).cloned().unwrap_or_default();
+    for (i, mut view) in orig_view_list.into_iter().enumerate() {
+        if view_map[i].is_none() {
+            continue;
+        }
+        let ctx = format!("bufferViews[{i}]");
+        let e = |m: String| IoError::invalid(src, m);
+        let b = opt_usize(&view, "buffer", &ctx)
+            .map_err(e)?
+            .ok_or_else(|| e(format!("{ctx}: missing buffer")))?;
+        let off = opt_usize(&view, "byteOffset", &ctx).map_err(e)?.unwrap_or(0);
+        let len = opt_usize(&view, "byteLength", &ctx)
+            .map_err(e)?
+            .ok_or_else(|| e(format!("{ctx}: missing byteLength")))?;
+        let data = sources.get(b).ok_or_else(|| e(format!("{ctx}: buffer {b} does not exist")))?;
+        if off.checked_add(len).is_none_or(|end| end > data.bytes().len()) {
+            return Err(e(format!(
+                "{ctx}: bytes {off}..{} lie outside buffer {b}",
+                off.saturating_add(len)
+            )));
+        }
+        let at = bin.push(Piece::Source { buffer: b, start: off, len }, 4, (off % 4) as u64);
+        view["buffer"] = json!(0);
+        view["byteOffset"] = json!(at);
+        views.push(view);
+    }
+    let base = bin.append(newbin);
+    for mut view in newviews {
+        let off = view.get("byteOffset").and_then(Value::as_u64).unwrap_or(0);
+        view["byteOffset"] = json!(off + base);
+        views.push(view);
+    }
+    walk_mut(doc, &mut |k, v| {
+        if k == "bufferView" {
+            remap(v, view_map);
+        }
+    });
+    if let Some(o) = doc.as_object_mut() {
+        if views.is_empty() {
+            o.remove("bufferViews");
+        } else {
+            o.insert("bufferViews".into(), Value::Array(views));
+        }
+    }
+    Ok(bin)
+}
+
+/// What the write-back will do: the vertex blocks with their final UVs and duplicates, and per
+/// primitive span the output vertex of every corner.
+struct Plan {
+    blocks: Vec<BlockPlan>,
+    spans: Vec<SpanPlan>,
+    span_block: Vec<usize>,
+}
+
+/// Checks that the faces still map onto the original primitives (`None` otherwise) and plans
+/// the UV of every vertex, duplicating vertices whose corners now disagree.
+fn plan(
+    model: &Model,
+    scene: &GltfScene,
+    sources: &[BufferData],
+    path: &Path,
+) -> Result<Option<Plan>, IoError> {
+    let src = &scene.source;
+    let orig = &scene.document;
+    let prim_json = |s: &super::PrimitiveSpan| -> Option<&Value> {
+        orig.get("meshes")?.get(s.mesh as usize)?.get("primitives")?.get(s.primitive as usize)
+    };
+
+    // Group spans into vertex blocks and check positions and corners.
+    let mut block_of_base: BTreeMap<u32, usize> = BTreeMap::new();
+    let mut blocks: Vec<BlockPlan> = Vec::new();
+    let mut span_block = Vec::with_capacity(scene.primitives.len());
+    for (si, s) in scene.primitives.iter().enumerate() {
+        let Some(prim) = prim_json(s) else { return Ok(None) };
+        let Some(attrs) = prim.get("attributes").and_then(Value::as_object) else {
+            return Ok(None);
+        };
+        let b = match block_of_base.get(&s.vertex_base) {
+            Some(&b) => b,
+            None => {
+                let Some(pi) = attrs.get("POSITION").and_then(Value::as_u64) else {
+                    return Ok(None);
+                };
+                let pos = Accessor::new(src, orig, sources, pi as usize)?;
+                if pos.count != s.vertex_count as usize {
+                    return Ok(None);
+                }
+                let base = s.vertex_base as usize;
+                for i in 0..pos.count {
+                    let p = [pos.get(i, 0), pos.get(i, 1), pos.get(i, 2)];
+                    if model.positions[base + i] != p {
+                        return Ok(None);
+                    }
+                }
+                blocks.push(BlockPlan {
+                    base: s.vertex_base,
+                    count: s.vertex_count,
+                    spans: Vec::new(),
+                    uvs: Vec::new(),
+                    any_uv: false,
+                    extras: Vec::new(),
+                    attrs: attrs.clone(),
+                    targets: prim.get("targets").cloned(),
+                });
+                block_of_base.insert(s.vertex_base, blocks.len() - 1);
+                blocks.len() - 1
+            }
+        };
+        blocks[b].spans.push(si);
+        span_block.push(b);
+        let ctx = format!("meshes[{}].primitives[{}]", s.mesh, s.primitive);
+        let indices =
+            match opt_usize(prim, "indices", &ctx).map_err(|m| IoError::invalid(src, m))? {
+                Some(i) => Some(Accessor::new(src, orig, sources, i)?),
+                None => None,
+            };
+        let mut f = s.first_face as usize;
+        let mut same = true;
+        for_each_triangle(src, &ctx, s.mode, indices.as_ref(), s.vertex_count as usize, |t| {
+            if same {
+                let v = model.faces[f].v;
+                same = (0..3).all(|k| v[k].0 == s.vertex_base + t[k]);
+            }
+            f += 1;
+        })?;
+        if !same || f != (s.first_face + s.face_count) as usize {
+            return Ok(None);
+        }
+    }
+
+    // Per block: the UV of every vertex, duplicating vertices whose corners disagree.
+    let mut spans: Vec<SpanPlan> = Vec::with_capacity(scene.primitives.len());
+    for _ in &scene.primitives {
+        spans.push(SpanPlan { corners: Vec::new(), remapped: false, uniform: None });
+    }
+    for block in &mut blocks {
+        let n = block.count as usize;
+        let mut assigned: Vec<Option<[f64; 2]>> = vec![None; n];
+        let mut dup: HashMap<(u32, u64, u64), u32> = HashMap::new();
+        let mut extra_uvs: Vec<[f64; 2]> = Vec::new();
+        for &si in &block.spans {
+            let s = &scene.primitives[si];
+            let plan = &mut spans[si];
+            plan.corners.reserve(s.face_count as usize * 3);
+            let faces = &model.faces[s.first_face as usize..(s.first_face + s.face_count) as usize];
+            let mut mixed = false;
+            for (j, face) in faces.iter().enumerate() {
+                if j == 0 {
+                    plan.uniform = Some(face.material);
+                } else if plan.uniform != Some(face.material) {
+                    mixed = true;
+                }
+                for k in 0..3 {
+                    let gv = face.v[k].0 - block.base;
+                    let out = match face.uv {
+                        None => gv,
+                        Some(t) => {
+                            let uv = model.uvs[t[k].idx()];
+                            block.any_uv = true;
+                            match assigned[gv as usize] {
+                                None => {
+                                    assigned[gv as usize] = Some(uv);
+                                    gv
+                                }
+                                Some(a)
+                                    if a[0].to_bits() == uv[0].to_bits()
+                                        && a[1].to_bits() == uv[1].to_bits() =>
+                                {
+                                    gv
+                                }
+                                Some(_) => {
+                                    plan.remapped = true;
+                                    let key = (gv, uv[0].to_bits(), uv[1].to_bits());
+                                    let next = (n + block.extras.len()) as u32;
+                                    let id = *dup.entry(key).or_insert(next);
+                                    if id == next {
+                                        block.extras.push(gv);
+                                        extra_uvs.push(uv);
+                                    }
+                                    id
+                                }
+                            }
+                        }
+                    };
+                    plan.corners.push(out);
+                }
+            }
+            if mixed {
+                plan.uniform = None;
+            }
+        }
+        if n + block.extras.len() > u32::MAX as usize {
+            return Err(IoError::unsupported(
+                path,
+                "splitting UV seams would exceed 2^32 vertices",
+            ));
+        }
+        block.uvs =
+            assigned.into_iter().map(|a| a.unwrap_or([0.0, 0.0])).chain(extra_uvs).collect();
+    }
+
+    Ok(Some(Plan { blocks, spans, span_block }))
 }
