@@ -388,7 +388,20 @@ impl<'p> Reader<'p> {
             PlyFormat::Ascii => 2 * (e.props.len() + 3),
             _ => e.props.iter().map(|p| p.kind.min_size()).sum::<usize>() + 3 * idx_size,
         };
-        self.model.faces.reserve_exact((count as usize).min(self.body_len / per_face.max(1)));
+        let face_reserve = (count as usize).min(self.body_len / per_face.max(1));
+        self.model.faces.reserve_exact(face_reserve);
+        // Per-face UV records: three per triangle, and never more than the body could encode
+        // (two values per record).
+        let tc_item = e.props.iter().zip(&self.froles).find_map(|(p, r)| match (r, p.kind) {
+            (FaceRole::TexCoord, Kind::List { item, .. }) => Some(match self.header.format {
+                PlyFormat::Ascii => 2,
+                _ => item.size(),
+            }),
+            _ => None,
+        });
+        if let Some(item) = tc_item {
+            self.model.uvs.reserve_exact((3 * face_reserve).min(self.body_len / (2 * item)));
+        }
 
         let kinds: Vec<Kind> = e.props.iter().map(|p| p.kind).collect();
         let roles = std::mem::take(&mut self.froles);

@@ -96,8 +96,8 @@ fn sanitize(name: &str) -> String {
     s.trim_start_matches('.').to_string()
 }
 
-/// `target` written relative to `base` (a directory) when both are on the same root, with `..`
-/// steps as needed; otherwise `target` as an absolute path.
+/// `target` written relative to `base` (a directory) when they share a directory below the root,
+/// with `..` steps as needed; otherwise `target` as an absolute path.
 fn relative_path(target: &Path, base: &Path) -> PathBuf {
     let absolute = |p: &Path| -> PathBuf {
         if let Ok(c) = p.canonicalize() {
@@ -131,6 +131,11 @@ fn relative_path(target: &Path, base: &Path) -> PathBuf {
         return t;
     }
     let common = tc.iter().zip(&bc).take_while(|(a, b)| a == b).count();
+    // Sharing only the root, `../../..` chains would break as soon as the output moves; the
+    // absolute path is the more robust reference then.
+    if !tc[..common].iter().any(|c| matches!(c, Component::Normal(_))) {
+        return t;
+    }
     let mut rel = PathBuf::new();
     for _ in common..bc.len() {
         rel.push("..");
@@ -301,5 +306,27 @@ impl Body<'_> {
             w.write_all(b"\n")?;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn relative_paths() {
+        let rel = |t: &str, b: &str| relative_path(Path::new(t), Path::new(b));
+        assert_eq!(rel("/nonexistent/b/c d.png", "/nonexistent/e"), Path::new("../b/c d.png"));
+        assert_eq!(rel("/nonexistent/e/./c.png", "/nonexistent/e"), Path::new("c.png"));
+        assert_eq!(rel("/nonexistent/x/../e/c.png", "/nonexistent/e/f"), Path::new("../c.png"));
+        assert_eq!(rel("/elsewhere/c.png", "/nonexistent/e"), Path::new("/elsewhere/c.png"));
+    }
+
+    #[test]
+    fn sanitized_names() {
+        assert_eq!(sanitize("../../etc/passwd"), "passwd");
+        assert_eq!(sanitize("a b:c.png"), "a_b_c.png");
+        assert_eq!(sanitize(".hidden"), "hidden");
+        assert_eq!(sanitize(""), "");
     }
 }
