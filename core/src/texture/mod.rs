@@ -4,6 +4,7 @@
 //! Architecture invariant: no function here holds a whole decoded sheet in RAM, except the JPEG
 //! decoder, whose limit is documented on [`decode`].
 
+mod codec;
 pub mod coords;
 pub mod decode;
 pub mod encode;
