@@ -31,10 +31,17 @@ fn open_detect(src: &ImageSource) -> Result<(Opened<'_>, ImageFormat), TextureEr
         Some(f) => Ok((op, f)),
         None => {
             let msg = match codec::other_kind(&op.head) {
-                Some(kind) => format!("{kind} images are not supported (use PNG, JPEG, TIFF or OpenEXR)"),
+                Some(kind) => {
+                    format!("{kind} images are not supported (use PNG, JPEG, TIFF or OpenEXR)")
+                }
                 None => format!(
                     "not a PNG, JPEG, TIFF or OpenEXR file (first bytes: {})",
-                    op.head.iter().take(8).map(|b| format!("{b:02x}")).collect::<Vec<_>>().join(" ")
+                    op.head
+                        .iter()
+                        .take(8)
+                        .map(|b| format!("{b:02x}"))
+                        .collect::<Vec<_>>()
+                        .join(" ")
                 ),
             };
             Err(TextureError::Unsupported { image: op.name, msg })

@@ -45,9 +45,6 @@ pub fn write_image(
         enc_err("no output format given and the extension is not png, jpg, tif or exr".into())
     })?;
     // Checks that need no file come first, so a refusal creates nothing.
-    if format == ImageFormat::Png && store.format().sample == super::SampleType::F32 {
-        return Err(enc_err("PNG cannot hold 32-bit float samples; write TIFF or EXR".into()));
-    }
     if format == ImageFormat::Jpeg && (store.width() > 65535 || store.height() > 65535) {
         return Err(TextureError::Size {
             image: path.display().to_string(),

@@ -38,10 +38,8 @@ pub(crate) fn probe(op: Opened<'_>) -> Result<(u32, u32), TextureError> {
     let name = op.name.clone();
     super::guard(&name, || {
         let reader = exr::block::read(op.input, false).map_err(|e| err(&op.name, e))?;
-        let header = reader
-            .headers()
-            .first()
-            .ok_or_else(|| decode_err(&op.name, "OpenEXR: no layer"))?;
+        let header =
+            reader.headers().first().ok_or_else(|| decode_err(&op.name, "OpenEXR: no layer"))?;
         size_of(&op.name, header)
     })
 }
@@ -61,7 +59,10 @@ fn size_of(name: &str, header: &Header) -> Result<(u32, u32), TextureError> {
 
 /// Which store channel each EXR channel of the layer fills (`None` = ignored), and the store's
 /// channel count.
-fn map_channels(name: &str, channels: &ChannelList) -> Result<(Vec<Option<usize>>, u8), TextureError> {
+fn map_channels(
+    name: &str,
+    channels: &ChannelList,
+) -> Result<(Vec<Option<usize>>, u8), TextureError> {
     let names: Vec<String> = channels.list.iter().map(|c| c.name.to_string()).collect();
     // Bare names first; otherwise the first layer prefix that has them.
     let find = |want: &str| -> Option<usize> {
@@ -192,20 +193,19 @@ pub(crate) fn encode<W: Write + Seek>(store: &TileStore, w: W) -> Result<(), Str
         3 => &[("B", 2), ("G", 1), ("R", 0)],
         _ => &[("A", 3), ("B", 2), ("G", 1), ("R", 0)],
     };
-    let list: smallvec::SmallVec<[ChannelDescription; 5]> = names
-        .iter()
-        .map(|(n, _)| ChannelDescription::new(*n, ExrSample::F32, *n == "A"))
-        .collect();
-    let header = Header::new("scanatlas".into(), (store.width() as usize, store.height() as usize), list)
-        .with_encoding(
-            exr::compression::Compression::ZIP16,
-            BlockDescription::Tiles(TileDescription {
-                tile_size: Vec2(TILE as usize, TILE as usize),
-                level_mode: LevelMode::Singular,
-                rounding_mode: exr::math::RoundingMode::Down,
-            }),
-            LineOrder::Increasing,
-        );
+    let list: smallvec::SmallVec<[ChannelDescription; 5]> =
+        names.iter().map(|(n, _)| ChannelDescription::new(*n, ExrSample::F32, *n == "A")).collect();
+    let header =
+        Header::new("scanatlas".into(), (store.width() as usize, store.height() as usize), list)
+            .with_encoding(
+                exr::compression::Compression::ZIP16,
+                BlockDescription::Tiles(TileDescription {
+                    tile_size: Vec2(TILE as usize, TILE as usize),
+                    level_mode: LevelMode::Singular,
+                    rounding_mode: exr::math::RoundingMode::Down,
+                }),
+                LineOrder::Increasing,
+            );
     let store_ch: Vec<usize> = names.iter().map(|(_, c)| *c).collect();
     exr::block::write(w, smallvec![header], true, |meta: MetaData, writer| {
         let channels = meta.headers[0].channels.clone();

@@ -121,7 +121,10 @@ fn probe_inner(op: Opened<'_>) -> Result<(u32, u32), TextureError> {
 fn probe_inner(op: Opened<'_>) -> Result<(u32, u32), TextureError> {
     let mut d = zune_jpeg::JpegDecoder::new(op.input);
     d.decode_headers().map_err(|e| decode_err(&op.name, format!("JPEG: {e:?}")))?;
-    let (w, h) = d.info().map(|i| (i.width, i.height)).ok_or_else(|| decode_err(&op.name, "JPEG: no frame header"))?;
+    let (w, h) = d
+        .info()
+        .map(|i| (i.width, i.height))
+        .ok_or_else(|| decode_err(&op.name, "JPEG: no frame header"))?;
     Ok((w as u32, h as u32))
 }
 
@@ -147,7 +150,10 @@ fn decode_mozjpeg(op: Opened<'_>, work_dir: &Path) -> Result<TileStore, TextureE
     let moz_err = |e: io::Error| decode_err(&name, format!("JPEG: {e}"));
     let hit_eof = Arc::new(AtomicBool::new(false));
     let input = EofWatch { inner: op.input, hit: hit_eof.clone() };
-    let d = Decompress::builder().with_markers(&[Marker::APP(14)]).from_reader(input).map_err(moz_err)?;
+    let d = Decompress::builder()
+        .with_markers(&[Marker::APP(14)])
+        .from_reader(input)
+        .map_err(moz_err)?;
     let (width, height) = (d.width() as u32, d.height() as u32);
     check_plausible(&name, width, height, op.len, super::MAX_PIXELS_PER_FILE_BYTE)?;
     // Adobe's APP14 marker means CMYK samples are stored inverted (Photoshop convention).
@@ -261,7 +267,10 @@ pub(crate) fn decode_zune(
         .set_strict_mode(true);
     let mut d = zune_jpeg::JpegDecoder::new_with_options(op.input, opts);
     d.decode_headers().map_err(|e| decode_err(&name, format!("JPEG: {e:?}")))?;
-    let (w, h) = d.info().map(|i| (i.width, i.height)).ok_or_else(|| decode_err(&name, "JPEG: no frame header"))?;
+    let (w, h) = d
+        .info()
+        .map(|i| (i.width, i.height))
+        .ok_or_else(|| decode_err(&name, "JPEG: no frame header"))?;
     let (width, height) = (w as u32, h as u32);
     check_plausible(&name, width, height, op.len, super::MAX_PIXELS_PER_FILE_BYTE)?;
     let pixels = width as u64 * height as u64;
@@ -328,7 +337,11 @@ impl StoreRows<'_> {
 
 impl jpeg_encoder::ImageBuffer for StoreRows<'_> {
     fn get_jpeg_color_type(&self) -> jpeg_encoder::JpegColorType {
-        if self.gray { jpeg_encoder::JpegColorType::Luma } else { jpeg_encoder::JpegColorType::Ycbcr }
+        if self.gray {
+            jpeg_encoder::JpegColorType::Luma
+        } else {
+            jpeg_encoder::JpegColorType::Ycbcr
+        }
     }
     fn width(&self) -> u16 {
         self.store.width() as u16

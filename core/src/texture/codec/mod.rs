@@ -218,3 +218,6 @@ pub(super) fn be16_to_native(bytes: &mut [u8]) {
         }
     }
 }
+
+#[cfg(test)]
+mod tests;

@@ -16,8 +16,15 @@ use crate::texture::store::TILE;
 use crate::texture::{PixelFormat, SampleType, TextureError, TileStore};
 
 /// Adam7 passes as (x offset, y offset, x step, y step).
-const ADAM7: [(u32, u32, u32, u32); 7] =
-    [(0, 0, 8, 8), (4, 0, 8, 8), (0, 4, 4, 8), (2, 0, 4, 4), (0, 2, 2, 4), (1, 0, 2, 2), (0, 1, 1, 2)];
+const ADAM7: [(u32, u32, u32, u32); 7] = [
+    (0, 0, 8, 8),
+    (4, 0, 8, 8),
+    (0, 4, 4, 8),
+    (2, 0, 4, 4),
+    (0, 2, 2, 4),
+    (1, 0, 2, 2),
+    (0, 1, 1, 2),
+];
 
 fn err(name: &str, e: png::DecodingError) -> TextureError {
     decode_err(name, format!("PNG: {e}"))

@@ -68,8 +68,10 @@ pub(crate) fn decode(op: Opened<'_>, work_dir: &Path) -> Result<TileStore, Textu
 fn decode_inner(op: Opened<'_>, work_dir: &Path) -> Result<TileStore, TextureError> {
     let name = op.name;
     let e = |x| err(&name, x);
-    let unsupported =
-        |msg: String| TextureError::Unsupported { image: name.clone(), msg: format!("TIFF: {msg}") };
+    let unsupported = |msg: String| TextureError::Unsupported {
+        image: name.clone(),
+        msg: format!("TIFF: {msg}"),
+    };
     let mut dec = Decoder::new(op.input).map_err(e)?.with_limits(limits(op.len));
     let (width, height) = dec.dimensions().map_err(e)?;
     check_plausible(&name, width, height, op.len, super::MAX_PIXELS_PER_FILE_BYTE)?;
@@ -84,6 +86,8 @@ fn decode_inner(op: Opened<'_>, work_dir: &Path) -> Result<TileStore, TextureErr
         tiff::ColorType::GrayA(b) => (2, b),
         tiff::ColorType::RGB(b) => (3, b),
         tiff::ColorType::RGBA(b) => (4, b),
+        // The crate reports gray with an extra sample (alpha) as two-band "multiband".
+        tiff::ColorType::Multiband { bit_depth, num_samples: 2 } => (2, bit_depth),
         other => return Err(unsupported(format!("colour type {other:?}"))),
     };
     // SampleFormat: 1 unsigned integer (default), 2 signed, 3 float.
@@ -204,7 +208,8 @@ fn compress_tile(tile: &[u8], format: PixelFormat, scratch: &mut Vec<u8>) -> Vec
         predict(scratch, format);
         scratch
     };
-    let mut z = ZlibEncoder::new(Vec::with_capacity(data.len() / 2), Compression::new(DEFLATE_LEVEL));
+    let mut z =
+        ZlibEncoder::new(Vec::with_capacity(data.len() / 2), Compression::new(DEFLATE_LEVEL));
     // Writing into a Vec cannot fail.
     let _ = z.write_all(data);
     z.finish().unwrap_or_default()
