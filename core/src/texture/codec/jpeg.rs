@@ -41,9 +41,13 @@
 //! 1 or 2 channels are written as grayscale JPEG, 3 or 4 as YCbCr.
 
 use std::cell::RefCell;
-use std::io::{self, BufRead, Read, Write};
+use std::io::Write;
+#[cfg(feature = "mozjpeg")]
+use std::io::{self, BufRead, Read};
 use std::path::Path;
+#[cfg(feature = "mozjpeg")]
 use std::sync::Arc;
+#[cfg(feature = "mozjpeg")]
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::{Opened, blit, check_plausible, decode_err};
@@ -72,11 +76,13 @@ const STRIP_ROWS: usize = 64;
 
 /// A reader that records whether the end of the input was reached, to detect truncated files
 /// (libjpeg only warns about them and pads the image with gray).
+#[cfg(feature = "mozjpeg")]
 struct EofWatch<R> {
     inner: R,
     hit: Arc<AtomicBool>,
 }
 
+#[cfg(feature = "mozjpeg")]
 impl<R: Read> Read for EofWatch<R> {
     fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
         let n = self.inner.read(buf)?;
@@ -87,6 +93,7 @@ impl<R: Read> Read for EofWatch<R> {
     }
 }
 
+#[cfg(feature = "mozjpeg")]
 impl<R: BufRead> BufRead for EofWatch<R> {
     fn fill_buf(&mut self) -> io::Result<&[u8]> {
         let buf = self.inner.fill_buf()?;
@@ -100,6 +107,7 @@ impl<R: BufRead> BufRead for EofWatch<R> {
     }
 }
 
+#[cfg(feature = "mozjpeg")]
 fn truncated(name: &str) -> TextureError {
     decode_err(name, "JPEG: the file ends before the image data does (truncated file)")
 }
@@ -236,6 +244,7 @@ fn finish<R: BufRead>(
     s.finish().map_err(|e| decode_err(name, format!("JPEG: {e}")))
 }
 
+#[cfg(feature = "mozjpeg")]
 /// Converts a row of CMYK (as libjpeg outputs it, inverted when `adobe`) to RGB.
 fn cmyk_row_to_rgb(src: &[u8], dst: &mut [u8], adobe: bool) {
     for (c, d) in src.chunks_exact(4).zip(dst.chunks_exact_mut(3)) {
@@ -355,7 +364,7 @@ impl jpeg_encoder::ImageBuffer for StoreRows<'_> {
         let bpp = format.bytes_per_pixel();
         let mut raw = self.raw.borrow_mut();
         self.store.read_row(y, 0, &mut raw);
-        if y > 0 && y % TILE == 0 {
+        if y > 0 && y.is_multiple_of(TILE) {
             self.store.release_tile_rows(y / TILE - 1, y / TILE);
         }
         for px in raw.chunks_exact(bpp) {

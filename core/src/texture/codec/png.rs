@@ -85,7 +85,7 @@ pub(crate) fn decode(op: Opened<'_>, work_dir: &Path) -> Result<TileStore, Textu
                 be16_to_native(&mut scratch);
             }
             store.write_row(y, 0, &scratch);
-            if (y + 1) % TILE == 0 {
+            if (y + 1).is_multiple_of(TILE) {
                 store.release_tile_rows((y + 1) / TILE - 1, (y + 1) / TILE);
             }
         }
@@ -153,7 +153,7 @@ pub(crate) fn encode(store: &TileStore, w: &mut dyn Write) -> Result<(), String>
             be16_to_native(&mut row);
         }
         stream.write_all(&row).map_err(|e| e.to_string())?;
-        if (y + 1) % TILE == 0 {
+        if (y + 1).is_multiple_of(TILE) {
             store.release_tile_rows((y + 1) / TILE - 1, (y + 1) / TILE);
         }
     }
