@@ -140,9 +140,10 @@ pub(crate) fn encode(store: &TileStore, w: &mut dyn Write) -> Result<(), String>
         SampleType::U16 => BitDepth::Sixteen,
         SampleType::F32 => return Err("PNG cannot hold 32-bit float samples".into()),
     });
-    // `Balanced` (zlib level 6 class) with adaptive filtering: textures are written once and
-    // read many times, and it costs far less than `High` for a few percent more bytes.
-    enc.set_compression(png::Compression::Balanced);
+    // `Fast` (fdeflate, tuned for PNG). On a noisy synthetic 8192² RGB sheet `Balanced` took
+    // 48 s for 63 MiB against 1.1 s for 103 MiB; on a real 4096² scan texture `Fast` matched the
+    // size of the original file. Sheets are huge and rewritten often, so speed wins.
+    enc.set_compression(png::Compression::Fast);
     let mut writer = enc.write_header().map_err(|e| e.to_string())?;
     let mut stream = writer.stream_writer().map_err(|e| e.to_string())?;
     let mut row = vec![0u8; width as usize * format.bytes_per_pixel()];
