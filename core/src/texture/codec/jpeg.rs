@@ -31,6 +31,11 @@
 //!
 //! Arithmetic-coded JPEGs (rare) are not supported by either decoder and are reported as errors.
 //!
+//! Known limit: for *progressive* JPEGs libjpeg must keep every DCT coefficient of the image
+//! until the last scan (2 bytes per sample, about the decoded size for 4:2:0 chroma), so their
+//! memory is not bounded by the strip size. Baseline JPEGs, which photogrammetry tools write,
+//! stream in a few MiB.
+//!
 //! # Encoding
 //!
 //! `jpeg-encoder` pulls one row at a time through its `ImageBuffer` trait (baseline, interleaved),
