@@ -1,9 +1,20 @@
 //! Streaming encoders that write a `TileStore` as PNG (by rows), JPEG (by rows), tiled TIFF
 //! (BigTIFF past 4 GiB) or tiled OpenEXR, atomically.
+//!
+//! Every writer goes through [`AtomicFile`]: the image is written under a temporary name beside
+//! the target and renamed into place only when complete, so an error leaves neither a partial
+//! file nor a stray temporary, and a protected path (an input) is never overwritten.
+//!
+//! What each format keeps: PNG keeps 8/16 bits and 1–4 channels (f32 stores are refused); TIFF
+//! keeps everything (8/16-bit, f32, 1–4 channels); OpenEXR is written as f32 (u8/u16 stores
+//! are scaled to 0..1); JPEG is 8-bit gray or YCbCr, alpha dropped (see the JPEG codec).
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
+use super::codec;
 use super::{ImageFormat, TextureError, TileStore};
+use crate::atomic::AtomicFile;
 
 /// Options of the sheet writers.
 #[derive(Clone, Debug)]
@@ -28,6 +39,31 @@ pub fn write_image(
     path: &Path,
     opts: &EncodeOptions,
 ) -> Result<(), TextureError> {
-    let _ = (store, opts);
-    Err(TextureError::Encode { path: path.to_path_buf(), msg: "not written yet".into() })
+    let enc_err = |msg: String| TextureError::Encode { path: path.to_path_buf(), msg };
+    let file_err = |e: std::io::Error| TextureError::File { path: path.to_path_buf(), source: e };
+    let format = opts.format.or_else(|| ImageFormat::from_path(path)).ok_or_else(|| {
+        enc_err("no output format given and the extension is not png, jpg, tif or exr".into())
+    })?;
+    // Checks that need no file come first, so a refusal creates nothing.
+    if format == ImageFormat::Jpeg && (store.width() > 65535 || store.height() > 65535) {
+        return Err(TextureError::Size {
+            image: path.display().to_string(),
+            width: store.width() as u64,
+            height: store.height() as u64,
+            msg: "JPEG cannot exceed 65535 pixels per side".into(),
+        });
+    }
+    let mut file = AtomicFile::create(path, &opts.protect).map_err(file_err)?;
+    {
+        let mut w = file.writer();
+        match format {
+            ImageFormat::Png => codec::png::encode(store, &mut w),
+            ImageFormat::Jpeg => codec::jpeg::encode(store, &mut w, opts.jpeg_quality),
+            ImageFormat::Tiff => codec::tiff::encode(store, &mut w),
+            ImageFormat::Exr => codec::exr::encode(store, &mut w),
+        }
+        .map_err(enc_err)?;
+        w.flush().map_err(file_err)?;
+    }
+    file.commit().map_err(file_err)
 }

@@ -2,8 +2,9 @@
 //! fill it by rows, strips or tiles, streaming encoders, and the triangle rasterizer.
 //!
 //! Architecture invariant: no function here holds a whole decoded sheet in RAM, except the JPEG
-//! decoder, whose limit is documented on [`decode`].
+//! decoder of a build without the `mozjpeg` feature, whose limit is documented on [`decode`].
 
+mod codec;
 pub mod coords;
 pub mod decode;
 pub mod encode;

@@ -188,6 +188,33 @@ impl TileStore {
         }
     }
 
+    /// Drops the pages of tile rows `ty0..ty1` from this process's resident set. The pixels stay in
+    /// the backing file (through the page cache) and are faulted back in on the next access, so this
+    /// only lowers RSS: streaming decoders call it on every finished row of tiles and streaming
+    /// encoders on every row of tiles they have consumed, which keeps the resident part of a
+    /// gigapixel sheet to a few rows of tiles.
+    pub fn release_tile_rows(&self, ty0: u32, ty1: u32) {
+        let ty1 = ty1.min(self.tiles_y);
+        if ty0 >= ty1 {
+            return;
+        }
+        let row_bytes = self.tiles_x as usize * self.tile_bytes();
+        let start = ty0 as usize * row_bytes;
+        let len = (ty1 - ty0) as usize * row_bytes;
+        #[cfg(unix)]
+        {
+            // SAFETY: the map is a shared mapping of a regular file. MADV_DONTNEED on such a
+            // mapping only removes page-table entries; dirty pages are kept in the page cache and
+            // written back, and later reads see the same bytes. No Rust reference can observe a
+            // change. A failure only means RSS stays higher, so it is ignored.
+            let _ = unsafe {
+                self.map.unchecked_advise_range(memmap2::UncheckedAdvice::DontNeed, start, len)
+            };
+        }
+        #[cfg(not(unix))]
+        let _ = (start, len);
+    }
+
     /// Advises the kernel that pages already written may be flushed; keeps RSS of huge sheets in
     /// check while decoding.
     pub fn flush_async(&self) -> Result<(), TextureError> {

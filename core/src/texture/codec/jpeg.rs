@@ -1,0 +1,404 @@
+//! JPEG: decoding into the tile store and streaming encoding out of it.
+//!
+//! # Decision: mozjpeg strips first, zune-jpeg as the fallback
+//!
+//! Every pure-Rust JPEG decoder decodes the whole image at once, which breaks the "no whole sheet
+//! in RAM" invariant for gigapixel textures (a 32768² RGB JPEG needs 3 GiB of output buffer).
+//! mozjpeg (libjpeg-turbo based, C) decodes in strips of scanlines. Built with
+//! `default-features = false` it is plain C compiled by `cc` (no nasm), which took 16 s here, so
+//! it is the default decoder (cargo feature `mozjpeg`, on by default): rows are read 64 at a time
+//! and written into the tile store, so memory stays at a few MiB whatever the image size.
+//! libjpeg reports fatal errors through `error_exit`; the mozjpeg crate turns them into Rust
+//! unwinding, which [`guard`] catches and turns into a [`TextureError`]. This is also why the
+//! workspace must never be built with `panic = "abort"`.
+//!
+//! Without the `mozjpeg` feature (a build without a C compiler), zune-jpeg decodes the whole
+//! image into one buffer, copied into tiles afterwards. That path enforces a memory limit,
+//! [`DEFAULT_JPEG_MAX_MPIX`] megapixels, overridable with the environment variable
+//! [`JPEG_MAX_MPIX_ENV`] (`SCANATLAS_JPEG_MAX_MPIX`); above it a clear error gives the image size
+//! and the limit. The limit does not apply to the mozjpeg path, which does not need it.
+//!
+//! Colour: grayscale JPEGs stay one channel; YCbCr become RGB; CMYK and YCCK (Adobe) are
+//! converted to RGB with the naive `(1 - C)(1 - K)` formula, honouring Adobe's inverted storage
+//! (APP14 marker). No ICC colour management is done.
+//!
+//! Orientation: the EXIF orientation tag is deliberately ignored. A texture is addressed by UV
+//! coordinates in its stored pixel order, and every renderer samples it that way; rotating it
+//! like a photo viewer would break the mapping.
+//!
+//! Truncation: libjpeg pads a truncated stream with gray and only warns. We wrap the reader to
+//! notice the end of file being reached before the last scanline, and report it as an error.
+//!
+//! Arithmetic-coded JPEGs (rare) are not supported by either decoder and are reported as errors.
+//!
+//! Known limit: for *progressive* JPEGs libjpeg must keep every DCT coefficient of the image
+//! until the last scan (2 bytes per sample, about the decoded size for 4:2:0 chroma), so their
+//! memory is not bounded by the strip size. Baseline JPEGs, which photogrammetry tools write,
+//! stream in a few MiB.
+//!
+//! # Encoding
+//!
+//! `jpeg-encoder` pulls one row at a time through its `ImageBuffer` trait (baseline, interleaved),
+//! so encoding never holds the image either. JPEG has no alpha channel: alpha is dropped (colour
+//! is written as stored, not premultiplied, because texture alpha in scans is a coverage mask and
+//! the colour under it is what a renderer ignoring alpha would show). 16-bit samples are rounded
+//! to 8 bits, f32 samples are clamped to 0..1 and scaled to 8 bits (no tone mapping). Stores with
+//! 1 or 2 channels are written as grayscale JPEG, 3 or 4 as YCbCr.
+
+use std::cell::RefCell;
+use std::io::Write;
+#[cfg(feature = "mozjpeg")]
+use std::io::{self, BufRead, Read};
+use std::path::Path;
+#[cfg(feature = "mozjpeg")]
+use std::sync::Arc;
+#[cfg(feature = "mozjpeg")]
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use super::{Opened, blit, check_plausible, decode_err};
+use crate::texture::store::TILE;
+use crate::texture::{PixelFormat, SampleType, TextureError, TileStore};
+
+/// Default largest JPEG, in megapixels, decoded by the whole-image fallback decoder (zune-jpeg):
+/// 512 Mpix is 1.5 GiB of RGB, enough for 16384² and 20000² sheets on a 24 GiB machine.
+pub const DEFAULT_JPEG_MAX_MPIX: u64 = 512;
+
+/// Environment variable overriding [`DEFAULT_JPEG_MAX_MPIX`] (a positive integer, megapixels).
+pub const JPEG_MAX_MPIX_ENV: &str = "SCANATLAS_JPEG_MAX_MPIX";
+
+/// The whole-image JPEG limit in force, in megapixels.
+pub fn jpeg_max_mpix() -> u64 {
+    std::env::var(JPEG_MAX_MPIX_ENV)
+        .ok()
+        .and_then(|v| v.trim().parse::<u64>().ok())
+        .filter(|&v| v > 0)
+        .unwrap_or(DEFAULT_JPEG_MAX_MPIX)
+}
+
+/// Rows decoded per strip by mozjpeg.
+#[cfg(feature = "mozjpeg")]
+const STRIP_ROWS: usize = 64;
+
+/// A reader that records whether the end of the input was reached, to detect truncated files
+/// (libjpeg only warns about them and pads the image with gray).
+#[cfg(feature = "mozjpeg")]
+struct EofWatch<R> {
+    inner: R,
+    hit: Arc<AtomicBool>,
+}
+
+#[cfg(feature = "mozjpeg")]
+impl<R: Read> Read for EofWatch<R> {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        if n == 0 && !buf.is_empty() {
+            self.hit.store(true, Ordering::Relaxed);
+        }
+        Ok(n)
+    }
+}
+
+#[cfg(feature = "mozjpeg")]
+impl<R: BufRead> BufRead for EofWatch<R> {
+    fn fill_buf(&mut self) -> io::Result<&[u8]> {
+        let buf = self.inner.fill_buf()?;
+        if buf.is_empty() {
+            self.hit.store(true, Ordering::Relaxed);
+        }
+        Ok(buf)
+    }
+    fn consume(&mut self, amt: usize) {
+        self.inner.consume(amt)
+    }
+}
+
+#[cfg(feature = "mozjpeg")]
+fn truncated(name: &str) -> TextureError {
+    decode_err(name, "JPEG: the file ends before the image data does (truncated file)")
+}
+
+/// Width and height from the frame header.
+pub(crate) fn probe(op: Opened<'_>) -> Result<(u32, u32), TextureError> {
+    let name = op.name.clone();
+    super::guard(&name, || probe_inner(op))
+}
+
+#[cfg(feature = "mozjpeg")]
+fn probe_inner(op: Opened<'_>) -> Result<(u32, u32), TextureError> {
+    let d = mozjpeg::Decompress::new_reader(op.input)
+        .map_err(|e| decode_err(&op.name, format!("JPEG: {e}")))?;
+    Ok((d.width() as u32, d.height() as u32))
+}
+
+#[cfg(not(feature = "mozjpeg"))]
+fn probe_inner(op: Opened<'_>) -> Result<(u32, u32), TextureError> {
+    let mut d = zune_jpeg::JpegDecoder::new(op.input);
+    d.decode_headers().map_err(|e| decode_err(&op.name, format!("JPEG: {e:?}")))?;
+    let (w, h) = d
+        .info()
+        .map(|i| (i.width, i.height))
+        .ok_or_else(|| decode_err(&op.name, "JPEG: no frame header"))?;
+    Ok((w as u32, h as u32))
+}
+
+/// Decodes a JPEG into a new store: strips through mozjpeg when built with it, otherwise the
+/// whole image through zune-jpeg under [`jpeg_max_mpix`].
+pub(crate) fn decode(op: Opened<'_>, work_dir: &Path) -> Result<TileStore, TextureError> {
+    let name = op.name.clone();
+    #[cfg(feature = "mozjpeg")]
+    {
+        super::guard(&name, || decode_mozjpeg(op, work_dir))
+    }
+    #[cfg(not(feature = "mozjpeg"))]
+    {
+        super::guard(&name, || decode_zune(op, work_dir, jpeg_max_mpix()))
+    }
+}
+
+#[cfg(feature = "mozjpeg")]
+fn decode_mozjpeg(op: Opened<'_>, work_dir: &Path) -> Result<TileStore, TextureError> {
+    use mozjpeg::{Decompress, Format, Marker};
+
+    let name = op.name;
+    let moz_err = |e: io::Error| decode_err(&name, format!("JPEG: {e}"));
+    let hit_eof = Arc::new(AtomicBool::new(false));
+    let input = EofWatch { inner: op.input, hit: hit_eof.clone() };
+    let d = Decompress::builder()
+        .with_markers(&[Marker::APP(14)])
+        .from_reader(input)
+        .map_err(moz_err)?;
+    let (width, height) = (d.width() as u32, d.height() as u32);
+    check_plausible(&name, width, height, op.len, super::MAX_PIXELS_PER_FILE_BYTE)?;
+    // Adobe's APP14 marker means CMYK samples are stored inverted (Photoshop convention).
+    let adobe = d.markers().any(|m| m.data.starts_with(b"Adobe"));
+
+    match d.image().map_err(moz_err)? {
+        Format::Gray(mut s) => {
+            let f = PixelFormat { channels: 1, sample: SampleType::U8 };
+            let mut store = TileStore::create(work_dir, width, height, f)?;
+            read_strips(&name, &mut s, &mut store, 1, |src, dst| dst.copy_from_slice(src))?;
+            finish(&name, s, &hit_eof)?;
+            Ok(store)
+        }
+        Format::RGB(mut s) => {
+            let mut store = TileStore::create(work_dir, width, height, PixelFormat::RGB8)?;
+            read_strips(&name, &mut s, &mut store, 3, |src, dst| dst.copy_from_slice(src))?;
+            finish(&name, s, &hit_eof)?;
+            Ok(store)
+        }
+        Format::CMYK(mut s) => {
+            let mut store = TileStore::create(work_dir, width, height, PixelFormat::RGB8)?;
+            read_strips(&name, &mut s, &mut store, 4, |src, dst| cmyk_row_to_rgb(src, dst, adobe))?;
+            finish(&name, s, &hit_eof)?;
+            Ok(store)
+        }
+    }
+}
+
+/// Reads every scanline of `s` in strips of [`STRIP_ROWS`], converts each row of `comps`
+/// components with `convert` into the store's pixel format and writes it.
+#[cfg(feature = "mozjpeg")]
+fn read_strips<R: BufRead>(
+    name: &str,
+    s: &mut mozjpeg::decompress::DecompressStarted<R>,
+    store: &mut TileStore,
+    comps: usize,
+    convert: impl Fn(&[u8], &mut [u8]),
+) -> Result<(), TextureError> {
+    let (width, height) = (store.width(), store.height());
+    if s.width() != width as usize || s.height() != height as usize {
+        return Err(decode_err(name, "JPEG: output size differs from the header"));
+    }
+    let in_row = width as usize * comps;
+    let out_row = width as usize * store.format().bytes_per_pixel();
+    let mut strip = vec![0u8; in_row * STRIP_ROWS];
+    let mut row = vec![0u8; out_row];
+    let mut y = 0u32;
+    while y < height {
+        let n = (STRIP_ROWS as u32).min(height - y) as usize;
+        let got = s
+            .read_scanlines_into::<u8>(&mut strip[..n * in_row])
+            .map_err(|e| decode_err(name, format!("JPEG: at row {y}: {e}")))?;
+        if got.len() != n * in_row {
+            return Err(decode_err(name, format!("JPEG: short read at row {y}")));
+        }
+        for r in 0..n {
+            convert(&got[r * in_row..(r + 1) * in_row], &mut row);
+            store.write_row(y + r as u32, 0, &row);
+        }
+        let done = y + n as u32;
+        if done / TILE > y / TILE {
+            store.release_tile_rows(y / TILE, done / TILE);
+        }
+        y = done;
+    }
+    Ok(())
+}
+
+#[cfg(feature = "mozjpeg")]
+fn finish<R: BufRead>(
+    name: &str,
+    s: mozjpeg::decompress::DecompressStarted<R>,
+    hit_eof: &AtomicBool,
+) -> Result<(), TextureError> {
+    // The end of file must not have been reached before every scanline was produced: libjpeg
+    // would have padded the missing rows with gray.
+    if hit_eof.load(Ordering::Relaxed) {
+        return Err(truncated(name));
+    }
+    s.finish().map_err(|e| decode_err(name, format!("JPEG: {e}")))
+}
+
+#[cfg(feature = "mozjpeg")]
+/// Converts a row of CMYK (as libjpeg outputs it, inverted when `adobe`) to RGB.
+fn cmyk_row_to_rgb(src: &[u8], dst: &mut [u8], adobe: bool) {
+    for (c, d) in src.chunks_exact(4).zip(dst.chunks_exact_mut(3)) {
+        // With Adobe's convention the stored values are 255 - ink, i.e. already "1 - C".
+        let inv = |v: u8| if adobe { v as u32 } else { 255 - v as u32 };
+        let k = inv(c[3]);
+        for i in 0..3 {
+            d[i] = ((inv(c[i]) * k + 127) / 255) as u8;
+        }
+    }
+}
+
+/// Whole-image decoding with zune-jpeg, refused above `max_mpix` megapixels. Used when mozjpeg
+/// is not compiled in.
+#[cfg_attr(feature = "mozjpeg", allow(dead_code))]
+pub(crate) fn decode_zune(
+    op: Opened<'_>,
+    work_dir: &Path,
+    max_mpix: u64,
+) -> Result<TileStore, TextureError> {
+    use zune_jpeg::zune_core::colorspace::ColorSpace;
+    use zune_jpeg::zune_core::options::DecoderOptions;
+
+    let name = op.name;
+    // Strict mode makes zune-jpeg report truncated and corrupt data instead of padding it.
+    let opts = DecoderOptions::default()
+        .set_max_width(1 << 16)
+        .set_max_height(1 << 16)
+        .set_strict_mode(true);
+    let mut d = zune_jpeg::JpegDecoder::new_with_options(op.input, opts);
+    d.decode_headers().map_err(|e| decode_err(&name, format!("JPEG: {e:?}")))?;
+    let (w, h) = d
+        .info()
+        .map(|i| (i.width, i.height))
+        .ok_or_else(|| decode_err(&name, "JPEG: no frame header"))?;
+    let (width, height) = (w as u32, h as u32);
+    check_plausible(&name, width, height, op.len, super::MAX_PIXELS_PER_FILE_BYTE)?;
+    let pixels = width as u64 * height as u64;
+    if pixels > max_mpix * 1_000_000 {
+        return Err(TextureError::Size {
+            image: name.clone(),
+            width: width as u64,
+            height: height as u64,
+            msg: format!(
+                "the JPEG is {:.1} megapixels, above the whole-image JPEG decoding limit of \
+                 {max_mpix} megapixels (set {JPEG_MAX_MPIX_ENV} to raise it, or build with the \
+                 `mozjpeg` feature, which decodes in strips)",
+                pixels as f64 / 1e6
+            ),
+        });
+    }
+    let gray = d.input_colorspace() == Some(ColorSpace::Luma);
+    let (out_cs, channels) = if gray { (ColorSpace::Luma, 1) } else { (ColorSpace::RGB, 3) };
+    d.set_options(opts.jpeg_set_out_colorspace(out_cs));
+    let len = d.output_buffer_size().ok_or_else(|| decode_err(&name, "JPEG: size overflow"))?;
+    let mut buf = Vec::new();
+    buf.try_reserve_exact(len).map_err(|_| {
+        decode_err(&name, format!("JPEG: cannot allocate {len} bytes for the decoded image"))
+    })?;
+    buf.resize(len, 0);
+    d.decode_into(&mut buf).map_err(|e| decode_err(&name, format!("JPEG: {e:?}")))?;
+    let f = PixelFormat { channels, sample: SampleType::U8 };
+    let mut store = TileStore::create(work_dir, width, height, f)?;
+    let stride = width as usize * channels as usize;
+    if buf.len() < stride * height as usize {
+        return Err(decode_err(&name, "JPEG: decoder returned too few bytes"));
+    }
+    blit(&mut store, 0, 0, width, height, &buf, stride);
+    Ok(store)
+}
+
+/// Feeds `jpeg-encoder` one converted row at a time from the store.
+struct StoreRows<'a> {
+    store: &'a TileStore,
+    gray: bool,
+    /// One row as stored, reused for every row (`fill_buffers` takes `&self`).
+    raw: RefCell<Vec<u8>>,
+}
+
+impl StoreRows<'_> {
+    /// Sample `i` of pixel data `px` as 8 bits.
+    #[inline]
+    fn sample8(px: &[u8], sample: SampleType, i: usize) -> u8 {
+        match sample {
+            SampleType::U8 => px[i],
+            SampleType::U16 => {
+                let v = u16::from_ne_bytes([px[2 * i], px[2 * i + 1]]) as u32;
+                ((v * 255 + 32767) / 65535) as u8
+            }
+            SampleType::F32 => {
+                let b = [px[4 * i], px[4 * i + 1], px[4 * i + 2], px[4 * i + 3]];
+                let v = f32::from_ne_bytes(b);
+                // NaN maps to 0 through the saturating cast.
+                (v.clamp(0.0, 1.0) * 255.0).round() as u8
+            }
+        }
+    }
+}
+
+impl jpeg_encoder::ImageBuffer for StoreRows<'_> {
+    fn get_jpeg_color_type(&self) -> jpeg_encoder::JpegColorType {
+        if self.gray {
+            jpeg_encoder::JpegColorType::Luma
+        } else {
+            jpeg_encoder::JpegColorType::Ycbcr
+        }
+    }
+    fn width(&self) -> u16 {
+        self.store.width() as u16
+    }
+    fn height(&self) -> u16 {
+        self.store.height() as u16
+    }
+    fn fill_buffers(&self, y: u16, buffers: &mut [Vec<u8>; 4]) {
+        let y = y as u32;
+        let format = self.store.format();
+        let bpp = format.bytes_per_pixel();
+        let mut raw = self.raw.borrow_mut();
+        self.store.read_row(y, 0, &mut raw);
+        if y > 0 && y.is_multiple_of(TILE) {
+            self.store.release_tile_rows(y / TILE - 1, y / TILE);
+        }
+        for px in raw.chunks_exact(bpp) {
+            if self.gray {
+                buffers[0].push(Self::sample8(px, format.sample, 0));
+            } else {
+                let r = Self::sample8(px, format.sample, 0);
+                let g = Self::sample8(px, format.sample, 1);
+                let b = Self::sample8(px, format.sample, 2);
+                let (yy, cb, cr) = jpeg_encoder::rgb_to_ycbcr(r, g, b);
+                buffers[0].push(yy);
+                buffers[1].push(cb);
+                buffers[2].push(cr);
+            }
+        }
+    }
+}
+
+/// Writes `store` as a baseline JPEG of `quality` (1..=100) to `w`, row by row.
+pub(crate) fn encode(store: &TileStore, w: &mut dyn Write, quality: u8) -> Result<(), String> {
+    let (width, height) = (store.width(), store.height());
+    if width > u16::MAX as u32 || height > u16::MAX as u32 {
+        return Err(format!("JPEG cannot exceed 65535 pixels per side ({width}x{height})"));
+    }
+    let rows = StoreRows {
+        store,
+        gray: store.format().channels <= 2,
+        raw: RefCell::new(vec![0u8; width as usize * store.format().bytes_per_pixel()]),
+    };
+    let enc = jpeg_encoder::Encoder::new(w, quality.clamp(1, 100));
+    enc.encode_image(rows).map_err(|e| e.to_string())
+}
