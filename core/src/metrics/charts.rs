@@ -3,7 +3,7 @@
 
 use super::CRACK_TOL;
 use super::stats::{DEGENERATE, FINITE, Prep};
-use super::weld::{Buckets, wedge_pid};
+use super::weld::Buckets;
 
 /// Union-find over `u32` nodes. The larger root is always hooked under the smaller one, so each
 /// component's root is its smallest node (as in evaluate.py) and `parent[x] <= x` holds, which
@@ -64,6 +64,20 @@ fn next_wedge(h: usize) -> usize {
     h - h % 3 + (h % 3 + 1) % 3
 }
 
+/// Sorts the half-edges of one bucket by `(hi(h), h)`; `scratch` receives the sorted
+/// `hi << 32 | h` keys (computed once per item, in a buffer reused across buckets).
+#[inline]
+fn sort_by_hi(items: &mut [u32], hi: &impl Fn(usize) -> u32, scratch: &mut Vec<u64>) {
+    scratch.clear();
+    scratch.extend(items.iter().map(|&h| (u64::from(hi(h as usize)) << 32) | u64::from(h)));
+    if scratch.len() > 1 {
+        scratch.sort_unstable();
+    }
+    for (it, &k) in items.iter_mut().zip(scratch.iter()) {
+        *it = k as u32;
+    }
+}
+
 /// UV-edge figures: border edges, their texel length, and the edge-chart union-find.
 pub(crate) struct UvEdges {
     pub border_edges: u64,
@@ -77,21 +91,22 @@ pub(crate) fn uv_edges(prep: &Prep<'_>, uvid: &[u32], n_uv: usize) -> UvEdges {
     let nh = uvid.len();
     let lo = |h: usize| uvid[h].min(uvid[next_wedge(h)]);
     let hi = |h: usize| uvid[h].max(uvid[next_wedge(h)]);
-    let mut buckets = Buckets::build(n_uv, nh, |h| lo(h));
+    let mut buckets = Buckets::build(n_uv, nh, lo);
     // `same[i] == 1` when the item at position `i` is in the group of the item before it.
     let mut same = vec![0u32; nh];
     let start = buckets.start.clone();
     let parts = buckets.par_chunks(&mut same, |bs, base, order, same| {
         let (mut count, mut len) = (0u64, 0.0f64);
+        let mut scratch = Vec::new();
         for b in bs {
             let r = start[b] as usize - base..start[b + 1] as usize - base;
             let items = &mut order[r.clone()];
-            items.sort_unstable_by_key(|&h| (hi(h as usize), h));
+            sort_by_hi(items, &hi, &mut scratch);
             let mut i = 0;
             while i < items.len() {
-                let key = hi(items[i] as usize);
+                let key = scratch[i] >> 32;
                 let mut j = i + 1;
-                while j < items.len() && hi(items[j] as usize) == key {
+                while j < items.len() && scratch[j] >> 32 == key {
                     same[r.start + j] = 1;
                     j += 1;
                 }
@@ -111,8 +126,8 @@ pub(crate) fn uv_edges(prep: &Prep<'_>, uvid: &[u32], n_uv: usize) -> UvEdges {
         border_len += l;
     }
     let mut charts = UnionFind::new(prep.model.faces.len());
-    for pos in 1..nh {
-        if same[pos] == 1 {
+    for (pos, &s) in same.iter().enumerate().skip(1) {
+        if s == 1 {
             charts.union((buckets.order[pos - 1] / 3) as usize, (buckets.order[pos] / 3) as usize);
         }
     }
@@ -177,26 +192,26 @@ pub(crate) struct MeshEdges {
 /// Groups half-edges by their unordered pair of welded positions: more than two half-edges make a
 /// non-manifold edge; exactly two make a manifold edge, which is a seam when its sides use
 /// different UV vertices and a crack when those coincide within [`CRACK_TOL`] texels.
-pub(crate) fn mesh_edges(prep: &Prep<'_>, pid: &[u32], n_pid: usize, uvid: &[u32]) -> MeshEdges {
-    let model = prep.model;
+pub(crate) fn mesh_edges(prep: &Prep<'_>, fw_all: &[u32], n_pid: usize, uvid: &[u32]) -> MeshEdges {
     let nh = uvid.len();
-    let fw = |h: usize| wedge_pid(model, pid, h);
+    let fw = |h: usize| fw_all[h];
     let lo = |h: usize| fw(h).min(fw(next_wedge(h)));
     let hi = |h: usize| fw(h).max(fw(next_wedge(h)));
-    let mut buckets = Buckets::build(n_pid, nh, |h| lo(h));
+    let mut buckets = Buckets::build(n_pid, nh, lo);
     let mut unused = vec![0u32; nh];
     let start = buckets.start.clone();
     let parts = buckets.par_chunks(&mut unused, |bs, base, order, _| {
         let mut out = MeshEdges { non_manifold: 0, seams: 0, cracks: Vec::new(), closed_len: 0.0 };
+        let mut scratch = Vec::new();
         for b in bs {
             let r = start[b] as usize - base..start[b + 1] as usize - base;
             let items = &mut order[r];
-            items.sort_unstable_by_key(|&h| (hi(h as usize), h));
+            sort_by_hi(items, &hi, &mut scratch);
             let mut i = 0;
             while i < items.len() {
-                let key = hi(items[i] as usize);
+                let key = (scratch[i] >> 32) as u32;
                 let mut j = i + 1;
-                while j < items.len() && hi(items[j] as usize) == key {
+                while j < items.len() && (scratch[j] >> 32) as u32 == key {
                     j += 1;
                 }
                 let degenerate_edge = key as usize == b;

@@ -144,8 +144,11 @@ pub struct AtlasStats {
 /// image could not be read); faces of sheets of unknown size use `W = H = 1`, as evaluate.py does,
 /// and take no part in the overlap raster.
 ///
-/// The model must satisfy [`Model::validate_indices`] (every reader guarantees it) and have
-/// fewer than `u32::MAX / 3` faces (about 1.4 billion).
+/// # Panics
+///
+/// The model must satisfy [`Model::validate_indices`] (every reader guarantees it), and it must
+/// have at most `u32::MAX / 3` faces (about 1.4 billion, far beyond what fits in memory), because
+/// face corners are numbered with `u32`.
 pub fn atlas_stats(
     model: &Model,
     sheet_sizes: &[Option<(u32, u32)>],
@@ -158,7 +161,9 @@ pub fn atlas_stats(
 
     let (pid, n_pid) = weld::weld_positions(&model.positions);
     let vertices_3d = weld::used_ids(model, &pid, n_pid);
-    let uvv = weld::uv_vertices(&prep, &pid, n_pid);
+    let fw = weld::wedge_pids(model, &pid);
+    drop(pid);
+    let uvv = weld::uv_vertices(&prep, &fw, n_pid);
 
     let mut edges = charts::uv_edges(&prep, &uvv.uvid, uvv.count);
     let labels = edges.charts.flatten();
@@ -167,7 +172,7 @@ pub fn atlas_stats(
     let uv_flipped_faces = charts::flipped_faces(&labels, &chart_sums, &fp.area, &fp.flags);
     drop(chart_sums);
 
-    let mesh = charts::mesh_edges(&prep, &pid, n_pid, &uvv.uvid);
+    let mesh = charts::mesh_edges(&prep, &fw, n_pid, &uvv.uvid);
     let mut welded_uf = edges.charts;
     for &(a, b) in &mesh.cracks {
         welded_uf.union(a, b);

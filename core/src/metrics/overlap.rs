@@ -2,19 +2,20 @@
 //! them: a texel is covered by a face when its centre lies strictly inside the face by
 //! [`RASTER_EPS`] along the scanline; texels covered by two or more faces of one sheet overlap.
 //!
-//! Each sheet is processed in row bands of at most [`BAND_TEXELS`] texels, in parallel, each band
-//! with its own owner and coverage buffers, so memory stays bounded whatever the sheet size. Faces
-//! are visited in increasing index order inside a band, so the first faces of a texel are known
-//! without sorting.
+//! Each sheet is cut into tiles of at most [`TILE_TEXELS`] texels (whole rows when the sheet is
+//! narrower than that), laid over the bounding box of its faces. Tiles are processed in parallel,
+//! each with its own owner and coverage buffers, so memory stays bounded whatever the sheet size.
+//! Faces are visited in increasing index order inside a tile, so the first faces of each texel are
+//! known without sorting.
 
 use rayon::prelude::*;
 
 use super::stats::{DEGENERATE, FINITE, Prep};
 use super::{OVERLAP_PAIR_CAP, RASTER_EPS};
 
-/// Texels per band (4 MiB of owners, 1 MiB of coverage counts).
-const BAND_TEXELS: usize = 1 << 20;
-/// Face pairs kept per band before they are sorted and deduplicated, bounding band memory.
+/// Texels per tile (4 MiB of owners, 1 MiB of coverage counts).
+const TILE_TEXELS: usize = 1 << 20;
+/// Face pairs kept per tile before they are sorted and deduplicated, bounding tile memory.
 const PAIR_FLUSH: usize = 1 << 22;
 
 /// The overlap figures.
@@ -26,12 +27,15 @@ pub struct OverlapCounts {
     pub face_pairs: u64,
 }
 
-/// A face to rasterize: its index, texel corners and clamped row range `j0..=j1`.
+/// A face to rasterize: its index, texel corners, clamped row range `j0..=j1` and a clamped
+/// column range `c0..=c1` that contains every texel centre it can cover.
 struct RasterFace {
     f: u32,
     t: [[f64; 2]; 3],
     j0: u32,
     j1: u32,
+    c0: u32,
+    c1: u32,
 }
 
 /// Counts overlapping texels and face pairs over all sheets of known size.
@@ -52,8 +56,9 @@ pub(crate) fn overlaps(prep: &Prep<'_>, flags: &[u8]) -> OverlapCounts {
 
 /// The faces of one sheet taking part in the raster (finite, non-degenerate UVs), with the rows
 /// of texel centres evaluate.py considers for them.
-fn sheet_faces(prep: &Prep<'_>, flags: &[u8], key: u32, h: u32) -> Vec<RasterFace> {
+fn sheet_faces(prep: &Prep<'_>, flags: &[u8], key: u32, w: u32, h: u32) -> Vec<RasterFace> {
     let nf = prep.model.faces.len();
+    let clamp = |x: f64, n: u32| x.max(0.0).min(n as f64 - 1.0) as u32;
     (0..nf)
         .into_par_iter()
         .with_min_len(1 << 15)
@@ -66,8 +71,20 @@ fn sheet_faces(prep: &Prep<'_>, flags: &[u8], key: u32, h: u32) -> Vec<RasterFac
             let ymax = t[0][1].max(t[1][1]).max(t[2][1]);
             let j0 = ((ymin + RASTER_EPS - 0.5).ceil()).max(0.0);
             let j1 = ((ymax - RASTER_EPS - 0.5).floor()).min(h as f64 - 1.0);
-            // Both are finite here: the UVs are finite and the sheet size is small.
-            (j1 >= j0).then(|| RasterFace { f: f as u32, t, j0: j0 as u32, j1: j1 as u32 })
+            // Scanline crossings lie between the extreme x up to rounding; one texel of margin
+            // keeps the column range a superset (spans are clipped to tiles exactly later).
+            let xmin = t[0][0].min(t[1][0]).min(t[2][0]);
+            let xmax = t[0][0].max(t[1][0]).max(t[2][0]);
+            let (c0, c1) = (clamp(xmin.floor() - 1.0, w), clamp(xmax.ceil() + 1.0, w));
+            // All finite here: the UVs are finite and the sheet size fits in u32.
+            (j1 >= j0).then_some(RasterFace {
+                f: f as u32,
+                t,
+                j0: j0 as u32,
+                j1: j1 as u32,
+                c0,
+                c1,
+            })
         })
         .collect()
 }
@@ -98,38 +115,84 @@ fn span(t: &[[f64; 2]; 3], y: f64, w: u32) -> Option<(usize, usize)> {
     Some((i0 as usize, i1 as usize))
 }
 
+/// The tiling of one sheet: tiles of `tw × th` texels over rows `row0..` and columns `col0..`
+/// (the bounding box of the faces), `ntx` tiles across.
+#[derive(Clone, Copy)]
+struct Tiling {
+    w: u32,
+    h: u32,
+    tw: usize,
+    th: usize,
+    row0: usize,
+    col0: usize,
+    ntx: usize,
+    nty: usize,
+}
+
+impl Tiling {
+    fn new(faces: &[RasterFace], w: u32, h: u32) -> Self {
+        let row0 = faces.iter().map(|f| f.j0).min().unwrap_or(0) as usize;
+        let row1 = faces.iter().map(|f| f.j1).max().unwrap_or(0) as usize;
+        let col0 = faces.iter().map(|f| f.c0).min().unwrap_or(0) as usize;
+        let col1 = faces.iter().map(|f| f.c1).max().unwrap_or(0) as usize;
+        let tw = (col1 - col0 + 1).min(TILE_TEXELS);
+        let th = (TILE_TEXELS / tw).max(1);
+        let ntx = (col1 - col0 + 1).div_ceil(tw);
+        let nty = (row1 - row0 + 1).div_ceil(th);
+        Self { w, h, tw, th, row0, col0, ntx, nty }
+    }
+
+    /// The tiles a face is listed in (row-major tile ids).
+    fn tiles(&self, rf: &RasterFace) -> impl Iterator<Item = usize> + use<> {
+        let (t, s) = (*self, rf);
+        let ty = (s.j0 as usize - t.row0) / t.th..=(s.j1 as usize - t.row0) / t.th;
+        let tx = (s.c0 as usize - t.col0) / t.tw..=(s.c1 as usize - t.col0) / t.tw;
+        ty.flat_map(move |y| tx.clone().map(move |x| y * t.ntx + x))
+    }
+
+    /// Rows `r0..r1` and columns `x0..x1` of tile `k`, clipped to the sheet.
+    fn bounds(&self, k: usize) -> (usize, usize, usize, usize) {
+        let (ty, tx) = (k / self.ntx, k % self.ntx);
+        let r0 = self.row0 + ty * self.th;
+        let x0 = self.col0 + tx * self.tw;
+        (r0, (r0 + self.th).min(self.h as usize), x0, (x0 + self.tw).min(self.w as usize))
+    }
+}
+
 /// Overlapping texels and (sorted, distinct) face pairs of one sheet.
 fn sheet_overlaps(prep: &Prep<'_>, flags: &[u8], key: u32, w: u32, h: u32) -> (u64, Vec<u64>) {
-    let faces = sheet_faces(prep, flags, key, h);
-    let band_rows = (BAND_TEXELS / w as usize).max(1);
-    let n_bands = (h as usize).div_ceil(band_rows);
-    // Faces per band (CSR), in increasing face order.
-    let mut start = vec![0u32; n_bands + 1];
+    let faces = sheet_faces(prep, flags, key, w, h);
+    if faces.is_empty() {
+        return (0, Vec::new());
+    }
+    let tiling = Tiling::new(&faces, w, h);
+    let n_tiles = tiling.ntx * tiling.nty;
+    // Faces per tile (CSR), in increasing face order. The tile grid covers only the faces'
+    // bounding box, so its size is bounded by the texels the raster visits anyway.
+    let mut start = vec![0u32; n_tiles + 1];
     for rf in &faces {
-        for b in rf.j0 as usize / band_rows..=rf.j1 as usize / band_rows {
-            start[b + 1] += 1;
+        for k in tiling.tiles(rf) {
+            start[k + 1] += 1;
         }
     }
-    for b in 0..n_bands {
-        start[b + 1] += start[b];
+    for k in 0..n_tiles {
+        start[k + 1] += start[k];
     }
-    let mut fill: Vec<u32> = start[..n_bands].to_vec();
-    let mut members = vec![0u32; start[n_bands] as usize];
-    for (k, rf) in faces.iter().enumerate() {
-        for b in rf.j0 as usize / band_rows..=rf.j1 as usize / band_rows {
-            members[fill[b] as usize] = k as u32;
-            fill[b] += 1;
+    let mut fill: Vec<u32> = start[..n_tiles].to_vec();
+    let mut members = vec![0u32; start[n_tiles] as usize];
+    for (i, rf) in faces.iter().enumerate() {
+        for k in tiling.tiles(rf) {
+            members[fill[k] as usize] = i as u32;
+            fill[k] += 1;
         }
     }
     drop(fill);
 
-    let results: Vec<(u64, Vec<u64>)> = (0..n_bands)
+    let results: Vec<(u64, Vec<u64>)> = (0..n_tiles)
         .into_par_iter()
-        .map(|b| {
-            let r0 = b * band_rows;
-            let r1 = ((b + 1) * band_rows).min(h as usize);
-            let list = &members[start[b] as usize..start[b + 1] as usize];
-            band_overlaps(&faces, list, r0, r1, w)
+        .map(|k| {
+            let list = &members[start[k] as usize..start[k + 1] as usize];
+            tile_overlaps(&faces, list, tiling.bounds(k), w)
         })
         .collect();
     let mut texels = 0u64;
@@ -143,16 +206,19 @@ fn sheet_overlaps(prep: &Prep<'_>, flags: &[u8], key: u32, w: u32, h: u32) -> (u
     (texels, pairs)
 }
 
-/// Rasterizes the faces `list` (indices into `faces`, increasing) over rows `r0..r1`.
-fn band_overlaps(
+/// Rasterizes the faces `list` (indices into `faces`, increasing) over the tile of rows `r0..r1`
+/// and columns `x0..x1`.
+fn tile_overlaps(
     faces: &[RasterFace],
     list: &[u32],
-    r0: usize,
-    r1: usize,
+    (r0, r1, x0, x1): (usize, usize, usize, usize),
     w: u32,
 ) -> (u64, Vec<u64>) {
-    let wu = w as usize;
-    let n = (r1 - r0) * wu;
+    let tw = x1 - x0;
+    let n = (r1 - r0) * tw;
+    if list.len() < 2 || n == 0 {
+        return (0, Vec::new());
+    }
     // The first face covering each texel, and how many faces cover it (saturating).
     let mut owner = vec![u32::MAX; n];
     let mut cov = vec![0u8; n];
@@ -164,8 +230,12 @@ fn band_overlaps(
         let rows = (rf.j0 as usize).max(r0)..=(rf.j1 as usize).min(r1 - 1);
         for j in rows {
             let Some((i0, i1)) = span(&rf.t, j as f64 + 0.5, w) else { continue };
-            let row = (j - r0) * wu;
-            for t in row + i0..=row + i1 {
+            let (i0, i1) = (i0.max(x0), i1.min(x1 - 1));
+            if i1 < i0 {
+                continue;
+            }
+            let row = (j - r0) * tw;
+            for t in row + i0 - x0..=row + i1 - x0 {
                 let c = cov[t];
                 if c == 0 {
                     owner[t] = rf.f;

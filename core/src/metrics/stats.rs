@@ -72,6 +72,15 @@ impl<'a> Prep<'a> {
         }
     }
 
+    /// The normalized UV of wedge `w` (corner `w % 3` of face `w / 3`); `(0, 0)` without UVs.
+    #[inline]
+    pub fn wedge_uv(&self, w: usize) -> [f64; 2] {
+        match self.model.faces[w / 3].uv {
+            Some(t) => self.model.uvs[t[w % 3].idx()],
+            None => [0.0; 2],
+        }
+    }
+
     /// The texel-space corners `(u·W, v·H)` of face `f`.
     #[inline]
     pub fn texels(&self, f: usize) -> [[f64; 2]; 3] {

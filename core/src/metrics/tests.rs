@@ -8,13 +8,16 @@ use super::*;
 use crate::index::{MaterialId, SheetId, UvId, VertexId};
 use crate::model::{Face, ImageSource, Material, Sheet};
 
+/// A face of a [`Fixture`]: position indices, UV indices (if any) and material (if any).
+type FixtureFace = ([u32; 3], Option<[u32; 3]>, Option<u32>);
+
 /// A model described by plain arrays: positions, UVs, faces `(positions, UVs, material)`,
 /// the size of each sheet and the sheet of each material.
 #[derive(Clone, Default)]
 struct Fixture {
     pos: Vec<[f64; 3]>,
     uv: Vec<[f64; 2]>,
-    faces: Vec<([u32; 3], Option<[u32; 3]>, Option<u32>)>,
+    faces: Vec<FixtureFace>,
     sheets: Vec<Option<(u32, u32)>>,
     materials: Vec<Option<u32>>,
 }
@@ -246,6 +249,38 @@ fn overlap_pairs_are_capped_at_sixteen_faces_per_texel() {
     assert_eq!(s.overlap_face_pairs, Some(16 * 15 / 2));
 }
 
+/// Two copies of a full-sheet quad on a `w × h` sheet.
+fn doubled_quad(w: u32, h: u32) -> Fixture {
+    let mut fx = Fixture::one_sheet(w, h);
+    for z in [0.0, 1.0] {
+        let b = fx.pos.len() as u32;
+        fx.pos.extend([[0.0, 0.0, z], [1.0, 0.0, z], [1.0, 1.0, z], [0.0, 1.0, z]]);
+        fx.uv.extend([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+        fx.tri([b, b + 1, b + 2]).tri([b, b + 2, b + 3]);
+    }
+    fx
+}
+
+#[test]
+fn overlaps_are_exact_across_tiles() {
+    // Row tiles: texel centres on the diagonal belong to neither triangle of a quad.
+    let s = doubled_quad(2048, 2048).stats();
+    assert_eq!(s.overlap_texels, Some(2048 * 2048 - 2048));
+    assert_eq!(s.overlap_face_pairs, Some(2));
+    // Column tiles: a sheet three million texels wide; no centre lies on this diagonal.
+    let w = 3 << 20;
+    let s = doubled_quad(w, 3).stats();
+    assert_eq!(s.overlap_texels, Some(3 * w as u64));
+    assert_eq!(s.overlap_face_pairs, Some(2));
+}
+
+#[test]
+fn empty_model_has_zero_figures() {
+    let s = Fixture::one_sheet(4, 4).stats();
+    assert_eq!((s.faces, s.vertices_3d, s.charts_edge, s.overlap_texels), (0, 0, 0, Some(0)));
+    assert_eq!((s.atlas_solidity, s.vertex_replication), (None, None));
+}
+
 #[test]
 fn faces_without_uv_use_zero_uvs() {
     let mut fx = quad(0.5, 8, 8);
@@ -375,9 +410,9 @@ fn random_model(n: usize, seed: u64) -> Fixture {
     }
     let mut uv_of: HashMap<(u32, usize), u32> = HashMap::new();
     let mut offsets: HashMap<usize, [f64; 2]> = HashMap::new();
-    for y in 0..n {
-        for x in 0..n {
-            let chart = row_chart[y] * ncols + col_chart[x];
+    for (y, &row_c) in row_chart.iter().enumerate() {
+        for (x, &col_c) in col_chart.iter().enumerate() {
+            let chart = row_c * ncols + col_c;
             let off = *offsets
                 .entry(chart)
                 .or_insert_with(|| [rng.below(400) as f64 + 0.37, rng.below(200) as f64 + 0.61]);
@@ -420,21 +455,21 @@ fn brute_force(fx: &Fixture) -> HashMap<&'static str, f64> {
     let mut uvv: HashMap<([u64; 3], u64, u64), usize> = HashMap::new();
     let mut wid = vec![[0usize; 3]; m.faces.len()];
     let mut pos_used = HashSet::new();
-    for (f, face) in m.faces.iter().enumerate() {
-        for k in 0..3 {
+    for (f, (face, ids)) in m.faces.iter().zip(wid.iter_mut()).enumerate() {
+        for (k, id) in ids.iter_mut().enumerate() {
             pos_used.insert(pkey(face.v[k]));
             let c = uv(f)[k];
             let key = (pkey(face.v[k]), c[0].to_bits(), c[1].to_bits());
             let n = uvv.len();
-            wid[f][k] = *uvv.entry(key).or_insert(n);
+            *id = *uvv.entry(key).or_insert(n);
         }
     }
     out.insert("vertices_3d", pos_used.len() as f64);
     out.insert("uv_vertices", uvv.len() as f64);
     let mut edges: HashMap<(usize, usize), Vec<usize>> = HashMap::new();
-    for f in 0..m.faces.len() {
+    for (f, ids) in wid.iter().enumerate() {
         for k in 0..3 {
-            let (a, b) = (wid[f][k], wid[f][(k + 1) % 3]);
+            let (a, b) = (ids[k], ids[(k + 1) % 3]);
             edges.entry((a.min(b), a.max(b))).or_default().push(3 * f + k);
         }
     }

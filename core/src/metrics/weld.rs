@@ -12,7 +12,7 @@ use std::ops::Range;
 use rayon::prelude::*;
 
 use super::charts::UnionFind;
-use super::stats::Prep;
+use super::stats::{FACE_CHUNK, Prep};
 use crate::model::Model;
 
 /// Items per parallel task when processing buckets; buckets are never split.
@@ -125,43 +125,56 @@ pub(crate) struct UvVertices {
     pub charts: u64,
 }
 
-/// The welded position of wedge `w`.
-#[inline]
-pub(crate) fn wedge_pid(model: &Model, pid: &[u32], w: usize) -> u32 {
-    pid[model.faces[w / 3].v[w % 3].idx()]
+/// The welded position of every wedge `3·f + k`.
+pub(crate) fn wedge_pids(model: &Model, pid: &[u32]) -> Vec<u32> {
+    let mut fw = vec![0u32; model.faces.len() * 3];
+    fw.par_chunks_mut(3 * FACE_CHUNK).enumerate().for_each(|(c, out)| {
+        for (i, w) in out.chunks_exact_mut(3).enumerate() {
+            let v = model.faces[c * FACE_CHUNK + i].v;
+            for k in 0..3 {
+                w[k] = pid[v[k].idx()];
+            }
+        }
+    });
+    fw
 }
 
-/// Groups the corners of all faces into UV vertices.
-pub(crate) fn uv_vertices(prep: &Prep<'_>, pid: &[u32], n_pid: usize) -> UvVertices {
+/// Groups the corners of all faces into UV vertices; `fw` are the wedges' welded positions.
+pub(crate) fn uv_vertices(prep: &Prep<'_>, fw: &[u32], n_pid: usize) -> UvVertices {
     let model = prep.model;
-    let nw = model.faces.len() * 3;
-    let mut buckets = Buckets::build(n_pid, nw, |w| wedge_pid(model, pid, w));
+    let nw = fw.len();
+    let mut buckets = Buckets::build(n_pid, nw, |w| fw[w]);
     // The key inside a position bucket: sheet key and the bits of the UV with non-finite
-    // coordinates replaced by 0 and -0.0 folded into 0.0 (evaluate.py's `UVz`).
+    // coordinates replaced by 0 and -0.0 folded into 0.0 (evaluate.py's `UVz`), then the wedge,
+    // so that the order is total and deterministic.
     let key = |w: u32| {
         let w = w as usize;
-        let uv = prep.uv(w / 3)[w % 3];
+        let uv = prep.wedge_uv(w);
         let z = |c: f64| (if c.is_finite() { c } else { 0.0 } + 0.0).to_bits();
         (prep.sheet_key[w / 3], z(uv[0]), z(uv[1]), w as u32)
     };
     let mut gid = vec![0u32; nw];
-    // Per chunk: sort each bucket, write chunk-local ids into `gid`, return the chunk's item
-    // range and its number of ids.
+    // Per chunk: sort each bucket (keys computed once into a scratch buffer reused across
+    // buckets), write chunk-local ids into `gid`, return the chunk's item range and id count.
     let chunks = {
         let start = buckets.start.clone();
         buckets.par_chunks(&mut gid, |bs, base, order, ids| {
             let mut next = 0u32;
+            let mut scratch: Vec<(u32, u64, u64, u32)> = Vec::new();
             for b in bs {
                 let r = start[b] as usize - base..start[b + 1] as usize - base;
-                let items = &mut order[r.clone()];
-                items.sort_unstable_by_key(|&w| key(w));
+                scratch.clear();
+                scratch.extend(order[r.clone()].iter().map(|&w| key(w)));
+                if scratch.len() > 1 {
+                    scratch.sort_unstable();
+                }
                 let mut prev = None;
-                for (i, &w) in items.iter().enumerate() {
-                    let (s, u, v, _) = key(w);
+                for (i, &(s, u, v, w)) in scratch.iter().enumerate() {
                     if prev != Some((s, u, v)) {
                         next += 1;
                         prev = Some((s, u, v));
                     }
+                    order[r.start + i] = w;
                     ids[r.start + i] = next - 1;
                 }
             }
