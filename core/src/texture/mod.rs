@@ -7,6 +7,7 @@
 pub mod coords;
 pub mod decode;
 pub mod encode;
+pub mod gutter;
 pub mod raster;
 pub mod store;
 
