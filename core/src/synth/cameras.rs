@@ -194,8 +194,16 @@ mod tests {
         let c = cams[0];
         let centre = [1.0, 2.0, 3.0];
         let pc = c.project(centre);
-        let pr = c.project([centre[0] + 0.1 * c.right[0], centre[1] + 0.1 * c.right[1], centre[2] + 0.1 * c.right[2]]);
-        let pu = c.project([centre[0] + 0.1 * c.up[0], centre[1] + 0.1 * c.up[1], centre[2] + 0.1 * c.up[2]]);
+        let pr = c.project([
+            centre[0] + 0.1 * c.right[0],
+            centre[1] + 0.1 * c.right[1],
+            centre[2] + 0.1 * c.right[2],
+        ]);
+        let pu = c.project([
+            centre[0] + 0.1 * c.up[0],
+            centre[1] + 0.1 * c.up[1],
+            centre[2] + 0.1 * c.up[2],
+        ]);
         assert!(pr[0] > pc[0] && (pr[1] - pc[1]).abs() < 1e-3);
         assert!(pu[1] > pc[1]);
     }

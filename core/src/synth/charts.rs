@@ -165,9 +165,12 @@ pub fn check_overlaps(
                     dropped += 1;
                     continue;
                 }
-                let tri = mesh.tris[f].map(|v| chart_local(cam, scale[c], &bbox[c], mesh.positions[v as usize]));
+                let tri = mesh.tris[f]
+                    .map(|v| chart_local(cam, scale[c], &bbox[c], mesh.positions[v as usize]));
                 s.texels.clear();
-                rasterize_triangle(tri, h, PixelRect::new(0, 0, w, h), |x, y, _| s.texels.push(y * w + x));
+                rasterize_triangle(tri, h, PixelRect::new(0, 0, w, h), |x, y, _| {
+                    s.texels.push(y * w + x)
+                });
                 let free = s.texels.iter().all(|&t| s.mask[t as usize / 64] & (1 << (t % 64)) == 0);
                 if free {
                     for &t in &s.texels {

@@ -36,8 +36,41 @@ struct Wave {
 impl Wave {
     #[inline]
     fn eval(&self, p: [f64; 3]) -> f64 {
-        (self.k[0] * p[0] + self.k[1] * p[1] + self.k[2] * p[2] + self.phase).sin()
+        sin(self.k[0] * p[0] + self.k[1] * p[1] + self.k[2] * p[2] + self.phase)
     }
+}
+
+/// Sine by explicit range reduction to `[−π, π]` and a degree-17 Taylor polynomial: absolute
+/// error below 1e-7 (far under one 8-bit level), branch-free and without library calls, so it is
+/// several times faster than `f64::sin` on the large arguments of the fine octaves, and plain
+/// arithmetic, so the true colour is bit-identical on every platform (the C library's `sin` and
+/// `round` need not be).
+#[inline]
+fn sin(x: f64) -> f64 {
+    use std::f64::consts::TAU;
+    // Adding and subtracting 1.5·2^52 rounds to the nearest integer (|t| < 2^51) with plain
+    // arithmetic; `f64::round` is a library call on baseline x86-64.
+    const MAGIC: f64 = 6_755_399_441_055_744.0;
+    let t = x * (1.0 / TAU);
+    let y = (t - ((t + MAGIC) - MAGIC)) * TAU;
+    let y2 = y * y;
+    // Horner form of Σ (−1)^k y^(2k+1) / (2k+1)!, k = 0..=8.
+    const C: [f64; 9] = [
+        1.0,
+        -1.0 / 6.0,
+        1.0 / 120.0,
+        -1.0 / 5040.0,
+        1.0 / 362_880.0,
+        -1.0 / 39_916_800.0,
+        1.0 / 6_227_020_800.0,
+        -1.0 / 1_307_674_368_000.0,
+        1.0 / 355_687_428_096_000.0,
+    ];
+    let mut acc = C[8];
+    for &c in C[..8].iter().rev() {
+        acc = acc * y2 + c;
+    }
+    y * acc
 }
 
 /// Wavelengths of the six octaves, in model units (see the module table).
@@ -88,7 +121,8 @@ const PALETTE: [[f64; 3]; 4] =
 #[inline]
 fn palette(t: f64) -> [f64; 3] {
     let x = t.clamp(0.0, 1.0) * (PALETTE.len() - 1) as f64;
-    let i = (x.floor() as usize).min(PALETTE.len() - 2);
+    // x ≥ 0, so truncation is the floor (and avoids a library call).
+    let i = (x as usize).min(PALETTE.len() - 2);
     let f = x - i as f64;
     let (a, b) = (PALETTE[i], PALETTE[i + 1]);
     [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f, a[2] + (b[2] - a[2]) * f]
@@ -141,7 +175,7 @@ fn srgb_lut() -> &'static [u8; LUT_SIZE] {
 /// A linear intensity in `[0, 1]` (clamped) as an 8-bit sRGB value.
 #[inline]
 pub fn linear_to_srgb8(l: f64) -> u8 {
-    let i = (l.clamp(0.0, 1.0) * (LUT_SIZE - 1) as f64).round() as usize;
+    let i = (l.clamp(0.0, 1.0) * (LUT_SIZE - 1) as f64 + 0.5) as usize;
     srgb_lut()[i]
 }
 
@@ -191,6 +225,14 @@ mod tests {
         }
         assert!(big > 0.02, "detail at the finest scale: {big}");
         assert!(small < 0.01, "smooth below it: {small}");
+    }
+
+    #[test]
+    fn fast_sine_matches_the_library() {
+        for i in -200_000..200_000 {
+            let x = i as f64 * 0.0173;
+            assert!((sin(x) - x.sin()).abs() < 1e-7, "sin({x})");
+        }
     }
 
     #[test]

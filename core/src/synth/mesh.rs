@@ -47,7 +47,12 @@ pub fn build(shape: Shape, faces: u32, seed: u64) -> Mesh {
             blob(&mut mesh, 0.45 * n, seed ^ 0xB10B, &Xf { m: scale3(0.7), t: [-1.6, 0.0, 0.0] });
             let m = [[0.7, 0.0, 0.0], [0.0, 0.7 * c, -0.7 * s], [0.0, 0.7 * s, 0.7 * c]];
             torus(&mut mesh, 0.35 * n, seed ^ 0x7095, &Xf { m, t: [0.2, 0.0, 0.0] });
-            terrain(&mut mesh, 0.2 * n, seed ^ 0x7E55, &Xf { m: scale3(0.7), t: [1.85, 0.0, -0.3] });
+            terrain(
+                &mut mesh,
+                0.2 * n,
+                seed ^ 0x7E55,
+                &Xf { m: scale3(0.7), t: [1.85, 0.0, -0.3] },
+            );
         }
     }
     mesh
@@ -117,8 +122,14 @@ fn blob(mesh: &mut Mesh, faces: f64, seed: u64, xf: &Xf) {
     let n = ((faces / 12.0).sqrt().round() as u32).max(2);
     let side = n + 1;
     // (normal axis, normal sign, first tangent axis, second tangent axis) with t1 × t2 = normal.
-    const CUBE: [(usize, bool, usize, usize); 6] =
-        [(0, true, 1, 2), (0, false, 2, 1), (1, true, 2, 0), (1, false, 0, 2), (2, true, 0, 1), (2, false, 1, 0)];
+    const CUBE: [(usize, bool, usize, usize); 6] = [
+        (0, true, 1, 2),
+        (0, false, 2, 1),
+        (1, true, 2, 0),
+        (1, false, 0, 2),
+        (2, true, 0, 1),
+        (2, false, 1, 0),
+    ];
     let lattice = |f: usize, i: u32, j: u32| -> u64 {
         let (ax, pos, t1, t2) = CUBE[f];
         let mut l = [0u64; 3];
@@ -151,10 +162,15 @@ fn blob(mesh: &mut Mesh, faces: f64, seed: u64, xf: &Xf) {
         .par_iter()
         .enumerate()
         .map(|(vi, &key)| {
-            let l = [key / (side as u64 * side as u64), key / side as u64 % side as u64, key % side as u64];
+            let l = [
+                key / (side as u64 * side as u64),
+                key / side as u64 % side as u64,
+                key % side as u64,
+            ];
             // Equiangular cube map: equal lattice steps are equal angles, so cells are nearly
             // uniform in size over the sphere.
-            let q = l.map(|c| (std::f64::consts::FRAC_PI_4 * (2.0 * c as f64 / n as f64 - 1.0)).tan());
+            let q =
+                l.map(|c| (std::f64::consts::FRAC_PI_4 * (2.0 * c as f64 / n as f64 - 1.0)).tan());
             let d = normalize(q);
             let r = [0, 1, 2].map(|a| signed_f64(hash3(seed ^ salt::JITTER, vi as u64, a)));
             let dot = r[0] * d[0] + r[1] * d[1] + r[2] * d[2];
@@ -183,8 +199,16 @@ fn terrain(mesh: &mut Mesh, faces: f64, seed: u64, xf: &Xf) {
         .map(|vi| {
             let (i, j) = (vi % side, vi / side);
             // Border vertices slide only along the border, so the outline stays a square.
-            let jx = if i > 0 && i < n { signed_f64(hash3(seed ^ salt::JITTER, vi as u64, 0)) } else { 0.0 };
-            let jy = if j > 0 && j < n { signed_f64(hash3(seed ^ salt::JITTER, vi as u64, 1)) } else { 0.0 };
+            let jx = if i > 0 && i < n {
+                signed_f64(hash3(seed ^ salt::JITTER, vi as u64, 0))
+            } else {
+                0.0
+            };
+            let jy = if j > 0 && j < n {
+                signed_f64(hash3(seed ^ salt::JITTER, vi as u64, 1))
+            } else {
+                0.0
+            };
             let x = -1.0 + 2.0 * (i as f64 + JITTER * jx) / n as f64;
             let y = -1.0 + 2.0 * (j as f64 + JITTER * jy) / n as f64;
             let z = 0.3 * fbm(seed ^ salt::SHAPE, [0.9 * x + 3.0, 0.9 * y + 7.0, 0.5], 4);
@@ -269,7 +293,11 @@ pub fn face_adjacency(tris: &[[u32; 3]], vertex_count: usize) -> Vec<u32> {
 pub fn tri_normal(p: [[f64; 3]; 3]) -> ([f64; 3], f64) {
     let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
     let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
-    let c = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+    let c = [
+        e1[1] * e2[2] - e1[2] * e2[1],
+        e1[2] * e2[0] - e1[0] * e2[2],
+        e1[0] * e2[1] - e1[1] * e2[0],
+    ];
     let n = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
     if n > 0.0 { ([c[0] / n, c[1] / n, c[2] / n], 0.5 * n) } else { ([0.0; 3], 0.0) }
 }
@@ -328,7 +356,12 @@ pub(crate) mod tests {
 
     #[test]
     fn shapes_have_their_topology_and_about_the_requested_size() {
-        for (shape, n) in [(Shape::Blob, 3000), (Shape::Terrain, 2000), (Shape::Torus, 5000), (Shape::Multi, 8000)] {
+        for (shape, n) in [
+            (Shape::Blob, 3000),
+            (Shape::Terrain, 2000),
+            (Shape::Torus, 5000),
+            (Shape::Multi, 8000),
+        ] {
             let m = build(shape, n, 42);
             let rel = (m.tris.len() as f64 - n as f64).abs() / n as f64;
             assert!(rel < 0.1, "{shape:?}: {} faces for {n}", m.tris.len());
@@ -342,14 +375,18 @@ pub(crate) mod tests {
                 Shape::Torus => assert_eq!((boundary, euler, comps), (0, 0, 1)),
                 Shape::Multi => {
                     assert_eq!(comps, 3);
-                    assert_eq!(euler, 2 + 0 + 1);
+                    // Blob (2) + torus (0) + terrain (1).
+                    assert_eq!(euler, 3);
                 }
             }
             if matches!(shape, Shape::Blob | Shape::Torus) {
                 assert!(signed_volume(&m) > 0.0, "{shape:?} normals point outwards");
             }
             for t in &m.tris {
-                assert!(tri_normal(t.map(|v| m.positions[v as usize])).1 > 0.0, "no degenerate face");
+                assert!(
+                    tri_normal(t.map(|v| m.positions[v as usize])).1 > 0.0,
+                    "no degenerate face"
+                );
             }
         }
     }

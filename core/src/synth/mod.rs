@@ -34,7 +34,9 @@ use crate::model::{Face, ImageSource, Material, Model, Sheet};
 use crate::texture::{TextureError, TileStore};
 
 /// The shape of a synthetic model.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum Shape {
     /// A closed bumpy sphere (genus 0, no boundary).
@@ -73,7 +75,9 @@ impl std::str::FromStr for Shape {
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         Shape::ALL.into_iter().find(|x| x.name() == s).ok_or_else(|| {
-            SynthError::Params(format!("unknown shape {s:?} (expected blob, terrain, torus or multi)"))
+            SynthError::Params(format!(
+                "unknown shape {s:?} (expected blob, terrain, torus or multi)"
+            ))
         })
     }
 }
@@ -118,18 +122,35 @@ impl Default for SynthParams {
 impl SynthParams {
     /// Checks every field's range.
     pub fn validate(&self) -> Result<(), SynthError> {
-        let check = |ok: bool, what: String| if ok { Ok(()) } else { Err(SynthError::Params(what)) };
-        check((100..=20_000_000).contains(&self.faces), format!("faces = {} (allowed 100 to 20000000)", self.faces))?;
-        check((1..=1000).contains(&self.cameras), format!("cameras = {} (allowed 1 to 1000)", self.cameras))?;
+        let check =
+            |ok: bool, what: String| if ok { Ok(()) } else { Err(SynthError::Params(what)) };
+        check(
+            (100..=20_000_000).contains(&self.faces),
+            format!("faces = {} (allowed 100 to 20000000)", self.faces),
+        )?;
+        check(
+            (1..=1000).contains(&self.cameras),
+            format!("cameras = {} (allowed 1 to 1000)", self.cameras),
+        )?;
         check(
             (64..=32768).contains(&self.sheet_size),
             format!("sheet size = {} (allowed 64 to 32768)", self.sheet_size),
         )?;
-        check((1..=4096).contains(&self.sheets), format!("sheets = {} (allowed 1 to 4096)", self.sheets))?;
-        check((2..=64).contains(&self.padding), format!("padding = {} (allowed 2 to 64)", self.padding))?;
+        check(
+            (1..=4096).contains(&self.sheets),
+            format!("sheets = {} (allowed 1 to 4096)", self.sheets),
+        )?;
+        check(
+            (2..=64).contains(&self.padding),
+            format!("padding = {} (allowed 2 to 64)", self.padding),
+        )?;
         check(
             self.gutter <= crate::texture::gutter::MAX_RADIUS,
-            format!("gutter = {} (allowed 0 to {})", self.gutter, crate::texture::gutter::MAX_RADIUS),
+            format!(
+                "gutter = {} (allowed 0 to {})",
+                self.gutter,
+                crate::texture::gutter::MAX_RADIUS
+            ),
         )
     }
 }
@@ -277,10 +298,17 @@ pub fn generate(params: &SynthParams, work_dir: &Path) -> Result<SynthOutput, Sy
         .collect();
     drop(face_uv);
     let materials = (0..sheet_count)
-        .map(|k| Material { name: format!("sheet_{k}"), sheet: Some(SheetId(k as u32)), extra: Vec::new() })
+        .map(|k| Material {
+            name: format!("sheet_{k}"),
+            sheet: Some(SheetId(k as u32)),
+            extra: Vec::new(),
+        })
         .collect();
     let sheets_meta = (0..sheet_count)
-        .map(|k| Sheet { image: ImageSource::File(PathBuf::from(sheet_file_name(k))), size: Some((size, size)) })
+        .map(|k| Sheet {
+            image: ImageSource::File(PathBuf::from(sheet_file_name(k))),
+            size: Some((size, size)),
+        })
         .collect();
     let model = Model {
         path: PathBuf::new(),
@@ -293,7 +321,10 @@ pub fn generate(params: &SynthParams, work_dir: &Path) -> Result<SynthOutput, Sy
         origin: Default::default(),
         notes: vec![format!(
             "synthetic {} model, seed {}, {} cameras, {} charts",
-            params.shape, seed, params.cameras, ch.len()
+            params.shape,
+            seed,
+            params.cameras,
+            ch.len()
         )],
     };
     let t_charts = Instant::now();
@@ -341,7 +372,9 @@ fn density(model: &Model, ch: &charts::Charts, size: u32) -> Density {
                 let f = crate::index::FaceId(f);
                 a3 += mesh::tri_normal(model.face_positions(f)).1;
                 if let Some([p, q, r]) = model.face_uvs(f) {
-                    a2 += 0.5 * ((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])).abs() * s2;
+                    a2 += 0.5
+                        * ((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])).abs()
+                        * s2;
                 }
             }
             (if a3 > 0.0 { (a2 / a3).sqrt() } else { 0.0 }, a3)

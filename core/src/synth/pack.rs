@@ -17,7 +17,14 @@ pub struct Place {
 /// Size of each chart at global scale `s`: the chart's own scale (`s`, or less for a chart that
 /// would not fit a sheet) and its rectangle in pixels including `pad` pixels of gutter.
 /// `extents` are the charts' bounding-box sizes in camera units.
-pub fn sizes(extents: &[[f64; 2]], s: f64, pad: u32, sheet: u32, scale: &mut Vec<f64>, rect: &mut Vec<[u32; 2]>) {
+pub fn sizes(
+    extents: &[[f64; 2]],
+    s: f64,
+    pad: u32,
+    sheet: u32,
+    scale: &mut Vec<f64>,
+    rect: &mut Vec<[u32; 2]>,
+) {
     // The largest chart extent in pixels, so ceil(extent) + pad ≤ sheet.
     let room = (sheet - pad - 1) as f64;
     let per: Vec<(f64, [u32; 2])> = extents
@@ -45,7 +52,12 @@ pub fn sizes(extents: &[[f64; 2]], s: f64, pad: u32, sheet: u32, scale: &mut Vec
 /// Shelf packing: rectangles sorted by height (then width, then index), placed left to right on
 /// shelves, a new shelf when a row is full, a new sheet when a shelf does not fit. Every
 /// rectangle must fit a sheet. Returns the number of sheets used.
-pub fn shelf_pack(rect: &[[u32; 2]], sheet: u32, order: &mut Vec<u32>, out: &mut Vec<Place>) -> u32 {
+pub fn shelf_pack(
+    rect: &[[u32; 2]],
+    sheet: u32,
+    order: &mut Vec<u32>,
+    out: &mut Vec<Place>,
+) -> u32 {
     order.clear();
     order.extend(0..rect.len() as u32);
     order.par_sort_unstable_by(|&a, &b| {
@@ -85,7 +97,8 @@ pub fn choose_scale(extents: &[[f64; 2]], pad: u32, sheet: u32, target: u32) -> 
     let area: f64 = extents.iter().map(|e| e[0] * e[1]).sum::<f64>().max(1e-30);
     // A first guess: the charts' own area at 60 % packing efficiency.
     let guess = (0.6 * target as f64 * sheet as f64 * sheet as f64 / area).sqrt();
-    let (mut scale, mut rect, mut order, mut place) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut scale, mut rect, mut order, mut place) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut fits = |s: f64| {
         sizes(extents, s, pad, sheet, &mut scale, &mut rect);
         shelf_pack(&rect, sheet, &mut order, &mut place) <= target
@@ -112,7 +125,8 @@ mod tests {
 
     #[test]
     fn shelf_packing_never_overlaps_and_stays_inside() {
-        let rect: Vec<[u32; 2]> = (0..500u32).map(|i| [5 + (i * 37) % 90, 5 + (i * 53) % 70]).collect();
+        let rect: Vec<[u32; 2]> =
+            (0..500u32).map(|i| [5 + (i * 37) % 90, 5 + (i * 53) % 70]).collect();
         let (mut order, mut place) = (Vec::new(), Vec::new());
         let sheets = shelf_pack(&rect, 256, &mut order, &mut place);
         assert!(sheets > 1);
@@ -131,14 +145,20 @@ mod tests {
 
     #[test]
     fn scale_fills_the_target_sheets_and_big_charts_shrink() {
-        let extents: Vec<[f64; 2]> = (0..300).map(|i| [0.01 + (i % 7) as f64 * 0.003, 0.012 + (i % 5) as f64 * 0.004]).collect();
+        let extents: Vec<[f64; 2]> = (0..300)
+            .map(|i| [0.01 + (i % 7) as f64 * 0.003, 0.012 + (i % 5) as f64 * 0.004])
+            .collect();
         for target in [1, 3] {
             let s = choose_scale(&extents, 4, 512, target);
-            let (mut sc, mut rect, mut order, mut place) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+            let (mut sc, mut rect, mut order, mut place) =
+                (Vec::new(), Vec::new(), Vec::new(), Vec::new());
             sizes(&extents, s, 4, 512, &mut sc, &mut rect);
             assert_eq!(shelf_pack(&rect, 512, &mut order, &mut place), target);
             sizes(&extents, s * 1.05, 4, 512, &mut sc, &mut rect);
-            assert!(shelf_pack(&rect, 512, &mut order, &mut place) > target, "near the largest scale");
+            assert!(
+                shelf_pack(&rect, 512, &mut order, &mut place) > target,
+                "near the largest scale"
+            );
         }
         let (mut sc, mut rect) = (Vec::new(), Vec::new());
         sizes(&[[10.0, 1.0]], 1000.0, 4, 512, &mut sc, &mut rect);

@@ -39,7 +39,8 @@ fn texel_tri(model: &Model, f: usize, size: f64) -> Option<[[f64; 2]; 3]> {
 /// The tiles `[tx0, tx1] × [ty0, ty1]` a texel-space triangle may touch.
 #[inline]
 fn tile_span(tri: &[[f64; 2]; 3], size: u32, tiles: u32) -> Option<(u32, u32, u32, u32)> {
-    let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+    let (mut x0, mut x1, mut y0, mut y1) =
+        (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
     for p in tri {
         x0 = x0.min(p[0]);
         x1 = x1.max(p[0]);

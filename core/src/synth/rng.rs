@@ -13,7 +13,11 @@ pub fn mix64(mut z: u64) -> u64 {
 /// A hash of a seed and two integers, for stateless per-element random numbers.
 #[inline]
 pub fn hash3(seed: u64, a: u64, b: u64) -> u64 {
-    mix64(seed ^ mix64(a.wrapping_add(0x9E37_79B9_7F4A_7C15) ^ mix64(b.wrapping_mul(0xD6E8_FEB8_6659_FD93))))
+    mix64(
+        seed ^ mix64(
+            a.wrapping_add(0x9E37_79B9_7F4A_7C15) ^ mix64(b.wrapping_mul(0xD6E8_FEB8_6659_FD93)),
+        ),
+    )
 }
 
 /// Maps a hash to a uniform `f64` in `[0, 1)` (53 random bits).

@@ -7,7 +7,15 @@ use crate::texture::coords::pixel_of_texel;
 use crate::texture::raster::{PixelRect, rasterize_triangle};
 
 fn params(shape: Shape, faces: u32, cameras: u32, seed: u64) -> SynthParams {
-    SynthParams { shape, faces, cameras, sheet_size: 512, sheets: 2, seed, ..SynthParams::default() }
+    SynthParams {
+        shape,
+        faces,
+        cameras,
+        sheet_size: 512,
+        sheets: 2,
+        seed,
+        ..SynthParams::default()
+    }
 }
 
 fn run(p: &SynthParams) -> (SynthOutput, tempfile::TempDir) {
@@ -65,7 +73,10 @@ fn every_face_has_uvs_in_the_unit_square_and_a_sheet_and_uvs_are_per_chart() {
         for f in m.face_ids() {
             assert!(m.face_sheet(f).is_some(), "{shape}: face {f} has a sheet");
             for uv in m.face_uvs(f).unwrap() {
-                assert!((0.0..=1.0).contains(&uv[0]) && (0.0..=1.0).contains(&uv[1]), "{shape}: {uv:?}");
+                assert!(
+                    (0.0..=1.0).contains(&uv[0]) && (0.0..=1.0).contains(&uv[1]),
+                    "{shape}: {uv:?}"
+                );
             }
         }
         // A UV vertex belongs to one position; positions on chart borders have several UVs.
@@ -111,7 +122,7 @@ fn sheets_hold_the_true_colour_of_the_surface() {
         let (out, _d) = run(&SynthParams { sheet_size: 1024, ..params(shape, 3000, 10, 7) });
         let m = &out.model;
         let s = 1024;
-        let (mut sum, mut worst, mut n) = (0.0, 0.0f64, 0usize);
+        let (mut sum, mut worst, mut n, mut inside) = (0.0, 0.0f64, 0usize, 0usize);
         for f in m.face_ids() {
             let k = m.face_sheet(f).unwrap().idx();
             let p = m.face_positions(f);
@@ -125,9 +136,34 @@ fn sheets_hold_the_true_colour_of_the_surface() {
             sum += err;
             worst = worst.max(err);
             n += 1;
+            // When that texel's centre is inside the face, the texel is exactly the true colour
+            // of the 3D point the centre maps to (up to the 8-bit rounding).
+            let c = crate::texture::coords::texel_center(i, j, s);
+            let q = uv.map(|u| [u[0] * s as f64, u[1] * s as f64]);
+            let area = (q[1][0] - q[0][0]) * (q[2][1] - q[0][1])
+                - (q[1][1] - q[0][1]) * (q[2][0] - q[0][0]);
+            let b1 = ((c[0] - q[0][0]) * (q[2][1] - q[0][1])
+                - (c[1] - q[0][1]) * (q[2][0] - q[0][0]))
+                / area;
+            let b2 = ((q[1][0] - q[0][0]) * (c[1] - q[0][1])
+                - (q[1][1] - q[0][1]) * (c[0] - q[0][0]))
+                / area;
+            let b = [1.0 - b1 - b2, b1, b2];
+            if b.iter().all(|&w| w > 1e-6) {
+                let at = [0, 1, 2].map(|k| b[0] * p[0][k] + b[1] * p[1][k] + b[2] * p[2][k]);
+                let exact = true_color(at).map(linear_to_srgb8);
+                for k in 0..3 {
+                    assert!(
+                        px[k].abs_diff(exact[k]) <= 1,
+                        "{shape}: face {f}: {px:?} vs {exact:?}"
+                    );
+                }
+                inside += 1;
+            }
         }
         let mean = sum / n as f64;
-        assert!(mean < 0.02 && worst < 0.12, "{shape}: colour error mean {mean}, worst {worst}");
+        assert!(mean < 0.02 && worst < 0.1, "{shape}: colour error mean {mean}, worst {worst}");
+        assert!(inside > n / 2, "{shape}: {inside} of {n} centroids checked exactly");
     }
 }
 
@@ -135,7 +171,10 @@ fn sheets_hold_the_true_colour_of_the_surface() {
 fn gutters_surround_the_charts() {
     // The true colour is never black, so non-black texels are exactly the painted ones.
     let lit = |o: &SynthOutput| -> u64 {
-        o.sheets.iter().map(|st| sheet_bytes(st).chunks(3).filter(|p| p != &[0, 0, 0]).count() as u64).sum()
+        o.sheets
+            .iter()
+            .map(|st| sheet_bytes(st).chunks(3).filter(|p| p != &[0, 0, 0]).count() as u64)
+            .sum()
     };
     let (out, _d) = run(&params(Shape::Blob, 2000, 6, 9));
     assert!(out.report.gutter_texels > 0);
@@ -151,7 +190,12 @@ fn more_cameras_make_more_charts() {
     let (few, _a) = run(&params(Shape::Blob, 20000, 4, 1));
     let (many, _b) = run(&params(Shape::Blob, 20000, 32, 1));
     assert!(few.report.charts > 1);
-    assert!(many.report.charts > few.report.charts, "{} vs {}", many.report.charts, few.report.charts);
+    assert!(
+        many.report.charts > few.report.charts,
+        "{} vs {}",
+        many.report.charts,
+        few.report.charts
+    );
     assert!(many.report.single_face_charts > 0, "ragged borders leave tiny charts");
 }
 

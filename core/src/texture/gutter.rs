@@ -184,6 +184,16 @@ pub fn dilate(
         });
     }
     let bpp = store.format().bytes_per_pixel();
+    // Written texels per tile, so tiles far from any chart are skipped without a scan.
+    let counts: Vec<u32> = (0..coverage.words.len() / TILE_WORDS)
+        .into_par_iter()
+        .map(|t| {
+            coverage.words[t * TILE_WORDS..(t + 1) * TILE_WORDS]
+                .iter()
+                .map(|w| w.count_ones())
+                .sum()
+        })
+        .collect();
     let mut filled = 0u64;
     let mut pending: Vec<TileFill> = Vec::new();
     for ty in 0..store.tiles_y() {
@@ -191,7 +201,9 @@ pub fn dilate(
             let (st, cov) = (&*store, &*coverage);
             (0..st.tiles_x())
                 .into_par_iter()
-                .map_init(Scratch::default, |s, tx| dilate_tile(st, cov, tx, ty, radius, s))
+                .map_init(Scratch::default, |s, tx| {
+                    dilate_tile(st, cov, &counts, tx, ty, radius, s)
+                })
                 .flatten()
                 .collect()
         };
@@ -208,7 +220,13 @@ pub fn dilate(
 }
 
 /// Writes the new texels of one row of tiles into the store and the mask.
-fn apply(store: &mut TileStore, coverage: &mut Coverage, ty: u32, fills: &[TileFill], bpp: usize) -> u64 {
+fn apply(
+    store: &mut TileStore,
+    coverage: &mut Coverage,
+    ty: u32,
+    fills: &[TileFill],
+    bpp: usize,
+) -> u64 {
     let mut n = 0u64;
     for fill in fills {
         let tile = store.tile_mut(fill.tx, ty);
@@ -234,6 +252,7 @@ fn apply(store: &mut TileStore, coverage: &mut Coverage, ty: u32, fills: &[TileF
 fn dilate_tile(
     store: &TileStore,
     cov: &Coverage,
+    counts: &[u32],
     tx: u32,
     ty: u32,
     radius: u32,
@@ -242,8 +261,15 @@ fn dilate_tile(
     let rect = store.tile_rect(tx, ty);
     // Nothing to fill in a fully written tile.
     let tile_texels = ((rect.x1 - rect.x0) * (rect.y1 - rect.y0)) as u64;
-    let own: u64 = cov.tile_words(tx, ty).iter().map(|w| w.count_ones() as u64).sum();
-    if own == tile_texels {
+    let count = |x: u32, y: u32| counts[(y * cov.tiles_x + x) as usize] as u64;
+    if count(tx, ty) == tile_texels {
+        return None;
+    }
+    // Nothing to grow from when this tile and its neighbours (the halo) are all empty.
+    let near = (ty.saturating_sub(1)..=(ty + 1).min(cov.tiles_y - 1))
+        .flat_map(|y| (tx.saturating_sub(1)..=(tx + 1).min(cov.tiles_x - 1)).map(move |x| (x, y)))
+        .any(|(x, y)| count(x, y) > 0);
+    if !near {
         return None;
     }
     let wx0 = rect.x0.saturating_sub(radius);
@@ -300,16 +326,16 @@ fn dilate_tile(
                         let q = ny as usize * ww + nx as usize;
                         if s.level[q] < step {
                             n += 1;
-                            for c in 0..ch {
-                                acc[c] += s.value[q * ch + c];
+                            for (a, v) in acc[..ch].iter_mut().zip(&s.value[q * ch..(q + 1) * ch]) {
+                                *a += v;
                             }
                         }
                     }
                 }
                 if n > 0 {
                     s.level[k] = step;
-                    for c in 0..ch {
-                        s.value[k * ch + c] = acc[c] / n as f32;
+                    for (v, a) in s.value[k * ch..(k + 1) * ch].iter_mut().zip(&acc[..ch]) {
+                        *v = a / n as f32;
                     }
                 }
             }
