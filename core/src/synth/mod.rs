@@ -145,6 +145,10 @@ impl SynthParams {
             format!("padding = {} (allowed 2 to 64)", self.padding),
         )?;
         check(
+            self.padding * 4 <= self.sheet_size,
+            format!("padding = {} is too wide for {} pixel sheets", self.padding, self.sheet_size),
+        )?;
+        check(
             self.gutter <= crate::texture::gutter::MAX_RADIUS,
             format!(
                 "gutter = {} (allowed 0 to {})",
@@ -281,6 +285,17 @@ pub fn generate(params: &SynthParams, work_dir: &Path) -> Result<SynthOutput, Sy
     let (mut order, mut place) = (Vec::new(), Vec::new());
     let sheet_count = pack::shelf_pack(&rect, size, &mut order, &mut place) as usize;
     drop(order);
+    // Only happens when there are more charts than the sheets can hold even at a tiny scale;
+    // refuse rather than create thousands of sheet files.
+    let limit = (4 * params.sheets as usize).max(params.sheets as usize + 64);
+    if sheet_count > limit {
+        return Err(SynthError::Params(format!(
+            "{} charts need {sheet_count} sheets of {size}² (asked for {}): use larger sheets, more \
+             sheets or fewer faces",
+            ch.len(),
+            params.sheets
+        )));
+    }
     let (uvs, face_uv) = charts::build_uvs(&ch, &m, &cams, &bbox, &scale, &place, pad, size);
 
     let single_face_charts = (0..ch.len()).filter(|&c| ch.range(c).len() == 1).count();

@@ -232,6 +232,18 @@ fn parameters_are_checked_and_shapes_have_kebab_case_names() {
     ] {
         assert!(matches!(generate(&bad, dir.path()), Err(SynthError::Params(_))));
     }
+    // Far more charts than one tiny sheet can hold: refused, not thousands of sheets.
+    let crowded = SynthParams {
+        faces: 50_000,
+        cameras: 64,
+        sheet_size: 64,
+        sheets: 1,
+        padding: 16,
+        ..SynthParams::default()
+    };
+    assert!(
+        matches!(generate(&crowded, dir.path()), Err(SynthError::Params(m)) if m.contains("charts need"))
+    );
     assert_eq!(serde_json::to_string(&Shape::Multi).unwrap(), "\"multi\"");
     assert_eq!("terrain".parse::<Shape>().unwrap(), Shape::Terrain);
     assert!("cube".parse::<Shape>().is_err());
