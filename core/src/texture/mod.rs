@@ -8,6 +8,7 @@ mod codec;
 pub mod coords;
 pub mod decode;
 pub mod encode;
+pub mod gutter;
 pub mod raster;
 pub mod store;
 
