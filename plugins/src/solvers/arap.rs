@@ -1,0 +1,669 @@
+//! The `arap` local solver: as-rigid-as-possible re-optimization (Liu et al. 2008, local/global)
+//! of a patch of UV triangles against their ORIGINAL UV triangles, as the reference's `src/arap.cpp`
+//! does after a merge, with the reduced symmetric system of its fork and the fixes listed below.
+//!
+//! Per problem: one orientation-free local frame and three cotangent weights per target triangle,
+//! one sparse SPD matrix over the free vertices (fixed neighbours go to the right-hand side),
+//! one symbolic analysis (AMD) and one numeric Cholesky factorization with faer's low-level API in
+//! `Par::Seq` (the caller parallelizes across problems). Per iteration: the closest rotation of each
+//! triangle's Jacobian (local step), one right-hand side for u and v together and one solve
+//! (global step). The best iterate is kept: an iteration that raises the energy or flips a
+//! triangle is discarded and ends the solve, so the `LocalSolver` contract holds by construction.
+//!
+//! Deviations from the reference, on purpose: a triangle whose rounded cotangent weights would make
+//! its stiffness indefinite has its negative weight dropped (a needle's weights are huge and their
+//! rounding can break the identity that makes the cotangent stiffness positive semi-definite);
+//! every connected part of the free vertices must reach a fixed vertex (checked, never a singular
+//! system); the convergence test is relative; iterates that increase the energy or add flips are
+//! rolled back; a patch whose current layout is mirrored keeps mirrored frames.
+
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::sparse::linalg::cholesky::{
+    CholeskySymbolicParams, LdltRef, LltRef, SymbolicCholesky, SymmetricOrdering,
+    factorize_symbolic_cholesky,
+};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Conj, MatMut, Par, Side};
+use scanatlas_core::geometry::{
+    EnergySum, Mat2, Tri2, closest_rotation, orientation, signed_area2,
+};
+use scanatlas_core::plugin::{
+    LocalProblem, LocalSolver, ParamInfo, ParamValue, Params, PluginError, PluginInfo, PluginKind,
+    Registry, SolveError, SolveReport, get_f64,
+};
+
+/// The registered name of this solver.
+pub const NAME: &str = "arap";
+
+/// The largest |cot| of a target angle kept as is: the cotangent of the machine-epsilon angle, as
+/// the reference clamps. Larger ones (only at angles below 2.2e-16 rad) scale the whole triangle's
+/// weights down together, which keeps its stiffness positive semi-definite. A tighter limit would
+/// help the conditioning but would under-weight slivers against the area-weighted energy, which
+/// then rises when their vertices move; the exact cotangent weights make the ARAP objective equal
+/// to that energy (for unflipped triangles), so the iteration decreases it.
+pub const COT_LIMIT: f64 = 1.0 / f64::EPSILON;
+
+/// The weight given to an edge whose cotangent is not finite (a zero-area target), as in the
+/// reference: small enough not to matter, positive so the vertex stays connected.
+pub const DEGENERATE_WEIGHT: f64 = 1e-8;
+
+const NONE: u32 = u32::MAX;
+
+/// The tuning parameters of [`ArapSolver`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ArapParams {
+    /// The maximum number of local/global iterations.
+    pub max_iterations: u32,
+    /// Stop when the relative energy decrease of an iteration falls below this.
+    pub tolerance: f64,
+}
+
+impl Default for ArapParams {
+    fn default() -> Self {
+        Self { max_iterations: 100, tolerance: 1e-8 }
+    }
+}
+
+/// The description shown by `scanatlas plugins`, with the parameters and their defaults.
+pub fn info() -> PluginInfo {
+    PluginInfo {
+        kind: PluginKind::Solver,
+        name: NAME,
+        summary: "as-rigid-as-possible local/global re-optimization against the original UV triangles \
+                  (Liu et al. 2008; sparse Cholesky, factorized once per problem)",
+        params: vec![
+            ParamInfo {
+                name: "max-iterations",
+                default: ParamValue::Int(100),
+                help: "maximum number of local/global iterations (0 to 1000000)",
+            },
+            ParamInfo {
+                name: "tolerance",
+                default: ParamValue::Float(1e-8),
+                help: "stop when an iteration lowers the energy by less than this fraction",
+            },
+        ],
+    }
+}
+
+impl ArapParams {
+    /// Reads and checks the parameters given by the user, with the declared defaults.
+    pub fn from_params(params: &Params) -> Result<Self, PluginError> {
+        let info = info();
+        let bad = |param: &str, msg: &str| PluginError::BadParam {
+            kind: info.kind,
+            name: NAME.to_string(),
+            param: param.to_string(),
+            msg: msg.to_string(),
+        };
+        let it = get_f64(params, &info, "max-iterations")?;
+        if !(0.0..=1e6).contains(&it) || it.fract() != 0.0 {
+            return Err(bad("max-iterations", "expected a whole number from 0 to 1000000"));
+        }
+        let tolerance = get_f64(params, &info, "tolerance")?;
+        if !(0.0..1.0).contains(&tolerance) {
+            return Err(bad("tolerance", "expected a number in [0, 1)"));
+        }
+        Ok(Self { max_iterations: it as u32, tolerance })
+    }
+}
+
+/// Registers the `arap` solver.
+pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
+    registry.register_solver(info(), |params| Ok(Box::new(ArapSolver::from_params(params)?)))
+}
+
+/// Per-triangle data computed once per problem.
+#[derive(Clone, Copy, Debug, Default)]
+struct TriData {
+    /// The corners.
+    v: [u32; 3],
+    /// Local-frame coordinates of corners 1 and 2 of the target (corner 0 is the origin).
+    p: [[f64; 2]; 2],
+    /// The inverse of the frame's edge matrix, row-major, when the target is not degenerate.
+    finv: Option<Mat2>,
+    /// The weight of the edge opposite each corner (0.5·cot of the target angle there).
+    w: [f64; 3],
+    /// The value slot of the off-diagonal matrix entry of the edge opposite each corner, or `NONE`
+    /// when an endpoint is fixed.
+    slot: [u32; 3],
+}
+
+/// How the matrix was factorized.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Factor {
+    Llt,
+    Ldlt,
+}
+
+/// The ARAP solver. Its buffers are reused from one problem to the next, so a worker that keeps one
+/// instance allocates little per solve (faer's symbolic structure is the exception: it is rebuilt
+/// for each problem).
+#[derive(Default)]
+pub struct ArapSolver {
+    params: ArapParams,
+    /// Vertex → row of the reduced system, or `NONE` for fixed and unreferenced vertices.
+    row_of: Vec<u32>,
+    /// Row of the reduced system → vertex.
+    free: Vec<u32>,
+    /// Union-find parents over the vertices, and whether each set holds a fixed vertex.
+    parent: Vec<u32>,
+    anchored: Vec<bool>,
+    tris: Vec<TriData>,
+    /// Exact orientation of each triangle at the start.
+    start_orient: Vec<i8>,
+    /// The upper triangle of the reduced matrix in compressed-column form.
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    values: Vec<f64>,
+    /// Per-column fill cursor while building the pattern.
+    cursor: Vec<usize>,
+    /// Numeric factor values.
+    l_values: Vec<f64>,
+    /// Right-hand side contributions of the fixed vertices (constant), and the full right-hand
+    /// side, column-major `n × 2` (u then v).
+    rhs_fixed: Vec<f64>,
+    rhs: Vec<f64>,
+    /// The candidate iterate.
+    trial: Vec<[f64; 2]>,
+    /// faer's work space, grown on demand.
+    mem: Option<MemBuffer>,
+}
+
+impl std::fmt::Debug for ArapSolver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ArapSolver").field("params", &self.params).finish_non_exhaustive()
+    }
+}
+
+impl ArapSolver {
+    /// A solver with the given parameters.
+    pub fn new(params: ArapParams) -> Self {
+        Self { params, ..Self::default() }
+    }
+
+    /// A solver configured from user parameters (see [`info`]).
+    pub fn from_params(params: &Params) -> Result<Self, PluginError> {
+        Ok(Self::new(ArapParams::from_params(params)?))
+    }
+
+    /// The parameters in use.
+    pub fn params(&self) -> ArapParams {
+        self.params
+    }
+}
+
+#[inline]
+fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+    [a[0] - b[0], a[1] - b[1]]
+}
+
+#[inline]
+fn corners(uv: &[[f64; 2]], v: [u32; 3]) -> Tri2 {
+    [uv[v[0] as usize], uv[v[1] as usize], uv[v[2] as usize]]
+}
+
+fn find(parent: &mut [u32], mut x: u32) -> u32 {
+    while parent[x as usize] != x {
+        let p = parent[x as usize];
+        parent[x as usize] = parent[p as usize];
+        x = p;
+    }
+    x
+}
+
+/// The weights `0.5·cot` of the target angle at each corner (for the opposite edge).
+///
+/// `cot = dot / |cross|` of the two edges leaving the corner; non-finite values (zero-area
+/// targets) become [`DEGENERATE_WEIGHT`]. Extreme slivers are scaled down as a whole to |cot| ≤
+/// [`COT_LIMIT`]; uniform scaling keeps the sign of `w0·w1 + w1·w2 + w2·w0`, which decides whether
+/// the triangle's stiffness is positive semi-definite. If rounding made it negative anyway, the
+/// negative (obtuse) weight is dropped.
+fn cot_weights(t: Tri2) -> [f64; 3] {
+    let c = signed_area2(t).abs();
+    let mut w = [0.0; 3];
+    for (k, wk) in w.iter_mut().enumerate() {
+        let a = sub(t[(k + 1) % 3], t[k]);
+        let b = sub(t[(k + 2) % 3], t[k]);
+        let cot = (a[0] * b[0] + a[1] * b[1]) / c;
+        *wk = if cot.is_finite() { 0.5 * cot } else { DEGENERATE_WEIGHT };
+    }
+    let m = w[0].abs().max(w[1].abs()).max(w[2].abs());
+    if m > 0.5 * COT_LIMIT {
+        let s = 0.5 * COT_LIMIT / m;
+        w.iter_mut().for_each(|x| *x *= s);
+    }
+    if w[0] * w[1] + w[1] * w[2] + w[2] * w[0] < 0.0 || w[0] + w[1] + w[2] <= 0.0 {
+        w.iter_mut().for_each(|x| *x = x.max(0.0));
+        if w.iter().all(|&x| x == 0.0) {
+            w = [DEGENERATE_WEIGHT; 3];
+        }
+    }
+    w
+}
+
+/// The target in an orientation-free local frame: corner 0 at the origin, corner 1 on +x at the
+/// length of the first edge, corner 2 at the unsigned angle between the edges, on the side given by
+/// `sign` (the patch's orientation, so mirrored patches keep their mirrored frames). Also the
+/// inverse of the frame's edge matrix `F = [p1 p2]` when it is invertible.
+fn local_frame(t: Tri2, sign: f64) -> ([[f64; 2]; 2], Option<Mat2>) {
+    let e1 = sub(t[1], t[0]);
+    let e2 = sub(t[2], t[0]);
+    let l1 = e1[0].hypot(e1[1]);
+    let p = if l1 > 0.0 {
+        let dot = e1[0] * e2[0] + e1[1] * e2[1];
+        let cross = (e1[0] * e2[1] - e1[1] * e2[0]).abs();
+        [[l1, 0.0], [dot / l1, sign * cross / l1]]
+    } else {
+        [[0.0, 0.0], [e2[0].hypot(e2[1]), 0.0]]
+    };
+    // F = [[l1, a], [0, b]]  ⇒  F⁻¹ = [[1/l1, −a/(l1·b)], [0, 1/b]].
+    let (l1, a, b) = (p[0][0], p[1][0], p[1][1]);
+    let d = l1 * b;
+    let finv = if d != 0.0 && d.is_finite() {
+        let inv = [[1.0 / l1, -a / d], [0.0, 1.0 / b]];
+        inv.iter().flatten().all(|x| x.is_finite()).then_some(inv)
+    } else {
+        None
+    };
+    (p, finv)
+}
+
+impl ArapSolver {
+    /// Marks the free vertices that take part in the system, numbers them, and checks that every
+    /// connected part of them reaches a fixed vertex.
+    fn number_free_vertices(&mut self, problem: &LocalProblem) -> Result<(), SolveError> {
+        let n = problem.uv.len();
+        self.parent.clear();
+        self.parent.extend(0..n as u32);
+        for t in &problem.triangles {
+            let r0 = find(&mut self.parent, t[0]);
+            for &v in &t[1..] {
+                let r = find(&mut self.parent, v);
+                if r != r0 {
+                    self.parent[r as usize] = r0;
+                }
+            }
+        }
+        self.anchored.clear();
+        self.anchored.resize(n, false);
+        self.row_of.clear();
+        self.row_of.resize(n, NONE);
+        // A free vertex takes part when some triangle uses it; unreferenced ones are left alone.
+        for t in &problem.triangles {
+            for &v in t {
+                if problem.fixed[v as usize] {
+                    let r = find(&mut self.parent, v);
+                    self.anchored[r as usize] = true;
+                } else {
+                    self.row_of[v as usize] = 0;
+                }
+            }
+        }
+        self.free.clear();
+        for v in 0..n as u32 {
+            if self.row_of[v as usize] == 0 {
+                let r = find(&mut self.parent, v);
+                if !self.anchored[r as usize] {
+                    return Err(SolveError::Unanchored);
+                }
+                self.row_of[v as usize] = self.free.len() as u32;
+                self.free.push(v);
+            }
+        }
+        Ok(())
+    }
+
+    /// Frames, weights and the orientation at the start of every triangle. Returns the patch's
+    /// orientation: -1 when its current signed area is negative (a mirrored patch), else 1.
+    fn prepare_triangles(&mut self, problem: &LocalProblem) -> i8 {
+        let total: f64 =
+            problem.triangles.iter().map(|&t| signed_area2(corners(&problem.uv, t))).sum();
+        let sign = if total < 0.0 { -1.0 } else { 1.0 };
+        self.tris.clear();
+        self.start_orient.clear();
+        for (&v, &target) in problem.triangles.iter().zip(&problem.targets) {
+            let (p, finv) = local_frame(target, sign);
+            self.tris.push(TriData { v, p, finv, w: cot_weights(target), slot: [NONE; 3] });
+            // Orientation relative to the patch: 1 when it agrees, so a "flip" is leaving 1.
+            self.start_orient.push(orientation(corners(&problem.uv, v)) * sign as i8);
+        }
+        sign as i8
+    }
+
+    /// Builds the sparsity pattern of the upper triangle (sorted rows, no duplicates) and the map
+    /// from each triangle edge to its value slot.
+    fn build_pattern(&mut self) {
+        let nf = self.free.len();
+        let row_of = &self.row_of;
+        let edge_rows = |t: &TriData, k: usize| {
+            let (a, b) = (row_of[t.v[(k + 1) % 3] as usize], row_of[t.v[(k + 2) % 3] as usize]);
+            (a != NONE && b != NONE && a != b).then(|| (a.min(b) as usize, a.max(b) as usize))
+        };
+        // Counting sort by column: one diagonal entry per column plus every free-free edge.
+        self.col_ptr.clear();
+        self.col_ptr.resize(nf + 1, 0);
+        for c in 0..nf {
+            self.col_ptr[c + 1] = 1;
+        }
+        for t in &self.tris {
+            for k in 0..3 {
+                if let Some((_, c)) = edge_rows(t, k) {
+                    self.col_ptr[c + 1] += 1;
+                }
+            }
+        }
+        for c in 0..nf {
+            self.col_ptr[c + 1] += self.col_ptr[c];
+        }
+        self.row_idx.clear();
+        self.row_idx.resize(self.col_ptr[nf], 0);
+        self.cursor.clear();
+        self.cursor.extend_from_slice(&self.col_ptr[..nf]);
+        for c in 0..nf {
+            self.row_idx[self.cursor[c]] = c;
+            self.cursor[c] += 1;
+        }
+        for t in &self.tris {
+            for k in 0..3 {
+                if let Some((r, c)) = edge_rows(t, k) {
+                    self.row_idx[self.cursor[c]] = r;
+                    self.cursor[c] += 1;
+                }
+            }
+        }
+        // Sort and deduplicate each column in place, compacting towards the front.
+        let mut out = 0;
+        for c in 0..nf {
+            let (start, end) = (self.col_ptr[c], self.col_ptr[c + 1]);
+            self.row_idx[start..end].sort_unstable();
+            self.col_ptr[c] = out;
+            let mut last = usize::MAX;
+            for i in start..end {
+                let r = self.row_idx[i];
+                if r != last {
+                    self.row_idx[out] = r;
+                    out += 1;
+                    last = r;
+                }
+            }
+        }
+        self.col_ptr[nf] = out;
+        self.row_idx.truncate(out);
+        // Slots of the off-diagonal entries (the diagonal of column c is its last entry).
+        for i in 0..self.tris.len() {
+            for k in 0..3 {
+                self.tris[i].slot[k] = match edge_rows(&self.tris[i], k) {
+                    Some((r, c)) => {
+                        let (s, e) = (self.col_ptr[c], self.col_ptr[c + 1]);
+                        match self.row_idx[s..e].binary_search(&r) {
+                            Ok(p) => (s + p) as u32,
+                            Err(_) => NONE, // unreachable: every edge was inserted above
+                        }
+                    }
+                    None => NONE,
+                };
+            }
+        }
+    }
+
+    /// Fills the matrix values and the constant right-hand side of the fixed neighbours.
+    fn assemble(&mut self, uv: &[[f64; 2]]) {
+        let nf = self.free.len();
+        self.values.clear();
+        self.values.resize(self.row_idx.len(), 0.0);
+        self.rhs_fixed.clear();
+        self.rhs_fixed.resize(2 * nf, 0.0);
+        for t in &self.tris {
+            for k in 0..3 {
+                let w = t.w[k];
+                let (i, j) = (t.v[(k + 1) % 3], t.v[(k + 2) % 3]);
+                let (ri, rj) = (self.row_of[i as usize], self.row_of[j as usize]);
+                for (r, other, ro) in [(ri, j, rj), (rj, i, ri)] {
+                    if r == NONE {
+                        continue;
+                    }
+                    let r = r as usize;
+                    self.values[self.col_ptr[r + 1] - 1] += w;
+                    if ro == NONE {
+                        let p = uv[other as usize];
+                        self.rhs_fixed[r] += w * p[0];
+                        self.rhs_fixed[nf + r] += w * p[1];
+                    } else if ro as usize == r {
+                        // Both ends are the same vertex (a degenerate triangle): no coupling.
+                        self.values[self.col_ptr[r + 1] - 1] -= w;
+                    }
+                }
+                if t.slot[k] != NONE {
+                    self.values[t.slot[k] as usize] -= w;
+                }
+            }
+        }
+    }
+
+    /// Makes sure faer's work space can hold `req`.
+    fn reserve(&mut self, req: StackReq) -> Result<(), SolveError> {
+        let fits = match self.mem.as_mut() {
+            Some(buf) => MemStack::new(buf).can_hold(req),
+            None => false,
+        };
+        if !fits {
+            self.mem = None;
+            let buf = MemBuffer::try_new(req).map_err(|_| {
+                SolveError::Factorization("out of memory for the work space".into())
+            })?;
+            self.mem = Some(buf);
+        }
+        Ok(())
+    }
+
+    /// Numeric factorization: LLT, then LDLT, then LLT with a tiny diagonal shift.
+    fn factorize(&mut self, symbolic: &SymbolicCholesky<usize>) -> Result<Factor, SolveError> {
+        let nf = self.free.len();
+        let req = StackReq::any_of(&[
+            symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+            symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default()),
+            symbolic.solve_in_place_scratch::<f64>(2, Par::Seq),
+        ]);
+        self.reserve(req)?;
+        self.l_values.clear();
+        self.l_values.resize(symbolic.len_val(), 0.0);
+        let Some(buf) = self.mem.as_mut() else {
+            return Err(SolveError::Factorization("no work space".into()));
+        };
+        let pattern =
+            SymbolicSparseColMatRef::new_checked(nf, nf, &self.col_ptr, None, &self.row_idx);
+        let a = SparseColMatRef::new(pattern, &self.values);
+        let llt = symbolic.factorize_numeric_llt(
+            &mut self.l_values,
+            a,
+            Side::Upper,
+            Default::default(),
+            Par::Seq,
+            MemStack::new(buf),
+            Default::default(),
+        );
+        if llt.is_ok() {
+            return Ok(Factor::Llt);
+        }
+        let ldlt = symbolic.factorize_numeric_ldlt(
+            &mut self.l_values,
+            a,
+            Side::Upper,
+            Default::default(),
+            Par::Seq,
+            MemStack::new(buf),
+            Default::default(),
+        );
+        if ldlt.is_ok() && self.l_values.iter().all(|x| x.is_finite()) {
+            return Ok(Factor::Ldlt);
+        }
+        // Positive semi-definite but numerically singular: shift the diagonal by a tiny fraction
+        // of its largest entry and try once more.
+        let max_diag =
+            (0..nf).map(|c| self.values[self.col_ptr[c + 1] - 1].abs()).fold(0.0, f64::max);
+        let shift = 1e-12 * max_diag.max(f64::MIN_POSITIVE);
+        for c in 0..nf {
+            self.values[self.col_ptr[c + 1] - 1] += shift;
+        }
+        let a = SparseColMatRef::new(pattern, &self.values);
+        symbolic
+            .factorize_numeric_llt(
+                &mut self.l_values,
+                a,
+                Side::Upper,
+                Default::default(),
+                Par::Seq,
+                MemStack::new(buf),
+                Default::default(),
+            )
+            .map(|_| Factor::Llt)
+            .map_err(|e| SolveError::Factorization(format!("{e:?}")))
+    }
+
+    /// One local/global iteration from `uv` into `self.trial`. Returns false when the solution is
+    /// not finite.
+    fn iterate(
+        &mut self,
+        uv: &[[f64; 2]],
+        symbolic: &SymbolicCholesky<usize>,
+        factor: Factor,
+    ) -> bool {
+        let nf = self.free.len();
+        self.rhs.clear();
+        self.rhs.extend_from_slice(&self.rhs_fixed);
+        // Local step (closest rotation of each Jacobian) fused with the rotational right-hand side.
+        for t in &self.tris {
+            let x = corners(uv, t.v);
+            let rot = match t.finv {
+                Some(fi) => {
+                    let (g1, g2) = (sub(x[1], x[0]), sub(x[2], x[0]));
+                    closest_rotation([
+                        [g1[0] * fi[0][0] + g2[0] * fi[1][0], g1[0] * fi[0][1] + g2[0] * fi[1][1]],
+                        [g1[1] * fi[0][0] + g2[1] * fi[1][0], g1[1] * fi[0][1] + g2[1] * fi[1][1]],
+                    ])
+                }
+                // No Jacobian for a degenerate target: keep its frame unrotated.
+                None => [[1.0, 0.0], [0.0, 1.0]],
+            };
+            let frame = [[0.0, 0.0], t.p[0], t.p[1]];
+            for k in 0..3 {
+                let (ci, cj) = ((k + 1) % 3, (k + 2) % 3);
+                let e = sub(frame[ci], frame[cj]);
+                let w = t.w[k];
+                let d = [
+                    w * (rot[0][0] * e[0] + rot[0][1] * e[1]),
+                    w * (rot[1][0] * e[0] + rot[1][1] * e[1]),
+                ];
+                let (ri, rj) = (self.row_of[t.v[ci] as usize], self.row_of[t.v[cj] as usize]);
+                if ri != NONE {
+                    self.rhs[ri as usize] += d[0];
+                    self.rhs[nf + ri as usize] += d[1];
+                }
+                if rj != NONE {
+                    self.rhs[rj as usize] -= d[0];
+                    self.rhs[nf + rj as usize] -= d[1];
+                }
+            }
+        }
+        // Global step.
+        let Some(buf) = self.mem.as_mut() else { return false };
+        let stack = MemStack::new(buf);
+        let x = MatMut::from_column_major_slice_mut(&mut self.rhs, nf, 2);
+        match factor {
+            Factor::Llt => LltRef::new(symbolic, &self.l_values).solve_in_place_with_conj(
+                Conj::No,
+                x,
+                Par::Seq,
+                stack,
+            ),
+            Factor::Ldlt => LdltRef::new(symbolic, &self.l_values).solve_in_place_with_conj(
+                Conj::No,
+                x,
+                Par::Seq,
+                stack,
+            ),
+        }
+        self.trial.clear();
+        self.trial.extend_from_slice(uv);
+        for (r, &v) in self.free.iter().enumerate() {
+            let p = [self.rhs[r], self.rhs[nf + r]];
+            if !(p[0].is_finite() && p[1].is_finite()) {
+                return false;
+            }
+            self.trial[v as usize] = p;
+        }
+        true
+    }
+
+    /// The energy of `self.trial`, or `None` when it flips a triangle that was not flipped at the
+    /// start.
+    fn evaluate_trial(&self, problem: &LocalProblem, sign: i8) -> Option<f64> {
+        let mut sum = EnergySum::default();
+        for ((t, &target), &o) in self.tris.iter().zip(&problem.targets).zip(&self.start_orient) {
+            let x = corners(&self.trial, t.v);
+            if o == 1 && orientation(x) * sign != 1 {
+                return None;
+            }
+            sum.add(target, x);
+        }
+        Some(sum.mean())
+    }
+}
+
+impl LocalSolver for ArapSolver {
+    fn solve(&mut self, problem: &mut LocalProblem) -> Result<SolveReport, SolveError> {
+        problem.validate()?;
+        let mut energy = {
+            let mut sum = EnergySum::default();
+            for (&t, &target) in problem.triangles.iter().zip(&problem.targets) {
+                sum.add(target, corners(&problem.uv, t));
+            }
+            sum.mean()
+        };
+        let mut report = SolveReport { energy_before: energy, energy_after: energy, iterations: 0 };
+        self.number_free_vertices(problem)?;
+        if self.free.is_empty() || energy == 0.0 || self.params.max_iterations == 0 {
+            return Ok(report);
+        }
+        let sign = self.prepare_triangles(problem);
+        self.build_pattern();
+        self.assemble(&problem.uv);
+        let nf = self.free.len();
+        let pattern =
+            SymbolicSparseColMatRef::new_checked(nf, nf, &self.col_ptr, None, &self.row_idx);
+        let symbolic = factorize_symbolic_cholesky(
+            pattern,
+            Side::Upper,
+            SymmetricOrdering::Amd,
+            CholeskySymbolicParams::default(),
+        )
+        .map_err(|e| SolveError::Factorization(format!("symbolic analysis: {e:?}")))?;
+        let factor = self.factorize(&symbolic)?;
+
+        while report.iterations < self.params.max_iterations {
+            report.iterations += 1;
+            if !self.iterate(&problem.uv, &symbolic, factor) {
+                return Err(SolveError::Diverged);
+            }
+            // Keep the best iterate: an energy increase or a new flip ends the solve unchanged.
+            let Some(next) = self.evaluate_trial(problem, sign) else { break };
+            if next > energy {
+                break;
+            }
+            for &v in &self.free {
+                problem.uv[v as usize] = self.trial[v as usize];
+            }
+            let decrease = (energy - next) / energy;
+            energy = next;
+            report.energy_after = energy;
+            if energy == 0.0 || decrease < self.params.tolerance {
+                break;
+            }
+        }
+        Ok(report)
+    }
+}
+
+#[cfg(test)]
+mod tests;
