@@ -53,7 +53,7 @@ fn max_abs(m: Mat2) -> f64 {
     m[0][0].abs().max(m[0][1].abs()).max(m[1][0].abs()).max(m[1][1].abs())
 }
 
-/// The split of `m` into its similarity part `(e, h)` and anti-similarity part `(f, g)`, with their
+/// The split of a normalized `m` into its similarity part `(e, h)` and anti-similarity part `(f, g)`, with their
 /// norms `q = ‖(e, h)‖` and `r = ‖(f, g)‖`, whose sum and difference are the signed singular values.
 #[inline]
 fn split(m: Mat2) -> (f64, f64, f64, f64, f64, f64) {
@@ -61,7 +61,9 @@ fn split(m: Mat2) -> (f64, f64, f64, f64, f64, f64) {
     let f = 0.5 * (m[0][0] - m[1][1]);
     let g = 0.5 * (m[1][0] + m[0][1]);
     let h = 0.5 * (m[1][0] - m[0][1]);
-    (e, f, g, h, e.hypot(h), f.hypot(g))
+    // Callers pass normalized matrices (entries below 4), so the plain square roots cannot overflow and
+    // are much cheaper than `hypot` in the per-triangle loops.
+    (e, f, g, h, (e * e + h * h).sqrt(), (f * f + g * g).sqrt())
 }
 
 /// Signed singular values `(s1, s2)` of `m`: `s1 ≥ |s2|`, `s2` with the sign of `det m`.
@@ -77,10 +79,21 @@ fn signed_values(m: Mat2) -> [f64; 2] {
     if scale == 0.0 {
         return [0.0, 0.0];
     }
-    let n = [[m[0][0] / scale, m[0][1] / scale], [m[1][0] / scale, m[1][1] / scale]];
+    // Normalize by a power of two near the largest entry: exact (no rounding), and one multiply per
+    // entry instead of a division. `up` = 2^(1023 − e) for a biased exponent e of `scale`, clamped
+    // to stay a normal number.
+    let e = (scale.to_bits() >> 52) & 0x7ff;
+    let up = f64::from_bits(2046u64.saturating_sub(e).max(1) << 52);
+    let n = [[m[0][0] * up, m[0][1] * up], [m[1][0] * up, m[1][1] * up]];
+    scaled_values(n, 1.0 / up)
+}
+
+/// The signed singular values of `n · scale`, for a normalized `n` (largest |entry| in [2⁻⁵², 4)).
+#[inline]
+fn scaled_values(n: Mat2, scale: f64) -> [f64; 2] {
     let (.., q, r) = split(n);
     let s1 = q + r;
-    // s1 ≥ the largest normalized entry = 1, so the division is safe.
+    // s1 ≥ the largest normalized |entry| > 0, so the division is safe.
     let s2 = (det(n) / s1).max(-s1).min(s1);
     [s1 * scale, s2 * scale]
 }
@@ -131,7 +144,11 @@ pub fn svd2(m: Mat2) -> (Mat2, [f64; 2], Mat2) {
 pub fn closest_rotation(m: Mat2) -> Mat2 {
     let c = m[0][0] + m[1][1];
     let s = m[1][0] - m[0][1];
-    let n = c.hypot(s);
+    // The plain norm is exact enough and cheap; `hypot` only guards the extreme magnitudes.
+    let mut n = (c * c + s * s).sqrt();
+    if !(1e-150..=1e150).contains(&n) {
+        n = c.hypot(s);
+    }
     if n > 0.0 && n.is_finite() {
         let (c, s) = (c / n, s / n);
         [[c, -s], [s, c]]
@@ -235,6 +252,7 @@ mod tests {
         }
         // Extreme scales neither underflow nor overflow.
         assert_eq!(singular_values([[1e-300, 0.0], [0.0, 1e-300]]), [1e-300, 1e-300]);
+        assert_eq!(singular_values([[0.0, 3e-310], [1e-310, 0.0]]), [3e-310, 1e-310]);
         assert_eq!(singular_values([[0.0, 1e300], [-2e300, 0.0]]), [2e300, 1e300]);
         assert!(singular_values([[f64::NAN, 0.0], [0.0, 1.0]])[0].is_nan());
     }
