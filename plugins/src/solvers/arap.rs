@@ -7,15 +7,17 @@
 //! one symbolic analysis (AMD) and one numeric Cholesky factorization with faer's low-level API in
 //! `Par::Seq` (the caller parallelizes across problems). Per iteration: the closest rotation of each
 //! triangle's Jacobian (local step), one right-hand side for u and v together and one solve
-//! (global step). The best iterate is kept: an iteration that raises the energy or flips a
-//! triangle is discarded and ends the solve, so the `LocalSolver` contract holds by construction.
+//! (global step). The best admissible iterate is kept: one that flips a triangle or does not lower
+//! the energy is never written back, so the `LocalSolver` contract holds by construction.
 //!
 //! Deviations from the reference, on purpose: a triangle whose rounded cotangent weights would make
 //! its stiffness indefinite has its negative weight dropped (a needle's weights are huge and their
 //! rounding can break the identity that makes the cotangent stiffness positive semi-definite);
 //! every connected part of the free vertices must reach a fixed vertex (checked, never a singular
 //! system); the convergence test is relative; iterates that increase the energy or add flips are
-//! rolled back; a patch whose current layout is mirrored keeps mirrored frames.
+//! never returned (but the iteration continues through them, see `solve`); frames take the orientation each triangle should have (a mirrored patch keeps
+//! mirrored frames, a triangle folded in the original layout keeps its fold, while the reference
+//! would try to unfold it and stall); a "flip" is a triangle leaving that expected orientation.
 
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::sparse::linalg::SupernodalThreshold;
@@ -47,6 +49,10 @@ pub const COT_LIMIT: f64 = 1.0 / f64::EPSILON;
 /// The weight given to an edge whose cotangent is not finite (a zero-area target), as in the
 /// reference: small enough not to matter, positive so the vertex stays connected.
 pub const DEGENERATE_WEIGHT: f64 = 1e-8;
+
+/// After this many iterations in a row without a better admissible iterate, a rise of the running
+/// energy ends the solve.
+pub const STALL_LIMIT: u32 = 10;
 
 /// Up to this many free vertices the factorization is forced to be simplicial (see `solve`).
 pub const SIMPLICIAL_LIMIT: usize = 200_000;
@@ -131,6 +137,10 @@ struct TriData {
     /// The value slot of the off-diagonal matrix entry of the edge opposite each corner, or `NONE`
     /// when an endpoint is fixed.
     slot: [u32; 3],
+    /// The orientation the triangle should have (+1 counter-clockwise, -1 clockwise).
+    expected: i8,
+    /// Whether it had that orientation at the start, so that losing it is a new flip.
+    guarded: bool,
 }
 
 /// How the matrix was factorized.
@@ -154,8 +164,6 @@ pub struct ArapSolver {
     parent: Vec<u32>,
     anchored: Vec<bool>,
     tris: Vec<TriData>,
-    /// Exact orientation of each triangle at the start.
-    start_orient: Vec<i8>,
     /// The upper triangle of the reduced matrix in compressed-column form.
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
@@ -168,7 +176,8 @@ pub struct ArapSolver {
     /// side, column-major `n × 2` (u then v).
     rhs_fixed: Vec<f64>,
     rhs: Vec<f64>,
-    /// The candidate iterate.
+    /// The running iterate and the next one.
+    current: Vec<[f64; 2]>,
     trial: Vec<[f64; 2]>,
     /// faer's work space, grown on demand.
     mem: Option<MemBuffer>,
@@ -248,7 +257,7 @@ fn cot_weights(t: Tri2) -> [f64; 3] {
 
 /// The target in an orientation-free local frame: corner 0 at the origin, corner 1 on +x at the
 /// length of the first edge, corner 2 at the unsigned angle between the edges, on the side given by
-/// `sign` (the patch's orientation, so mirrored patches keep their mirrored frames). Also the
+/// `sign` (the orientation the triangle is expected to have in the current layout). Also the
 /// inverse of the frame's edge matrix `F = [p1 p2]` when it is invertible.
 fn local_frame(t: Tri2, sign: f64) -> ([[f64; 2]; 2], Option<Mat2>) {
     let e1 = sub(t[1], t[0]);
@@ -318,21 +327,46 @@ impl ArapSolver {
         Ok(())
     }
 
-    /// Frames, weights and the orientation at the start of every triangle. Returns the patch's
-    /// orientation: -1 when its current signed area is negative (a mirrored patch), else 1.
-    fn prepare_triangles(&mut self, problem: &LocalProblem) -> i8 {
-        let total: f64 =
-            problem.triangles.iter().map(|&t| signed_area2(corners(&problem.uv, t))).sum();
-        let sign = if total < 0.0 { -1.0 } else { 1.0 };
-        self.tris.clear();
-        self.start_orient.clear();
+    /// Frames, weights, expected orientations and flip guards of every triangle.
+    ///
+    /// The current layout is taken to be an image of the targets under rigid motions and at most
+    /// one mirroring of the whole patch (the reference mirrors flipped charts; rigid alignment never
+    /// mirrors). The mirror state `m` is the area-weighted majority of (current orientation ×
+    /// target orientation) at the start. Each triangle's frame, and the orientation it is expected
+    /// to have, is then `m ×` its target's orientation: a triangle that is folded in the ORIGINAL
+    /// layout keeps its fold (the reflection-invariant energy calls that perfect, and unfolding it
+    /// would distort its neighbours), while a fold made by the merge is undone. Zero-area targets
+    /// expect the patch's dominant current orientation.
+    fn prepare_triangles(&mut self, problem: &LocalProblem) {
+        let (mut total, mut agreement) = (0.0, 0.0);
         for (&v, &target) in problem.triangles.iter().zip(&problem.targets) {
-            let (p, finv) = local_frame(target, sign);
-            self.tris.push(TriData { v, p, finv, w: cot_weights(target), slot: [NONE; 3] });
-            // Orientation relative to the patch: 1 when it agrees, so a "flip" is leaving 1.
-            self.start_orient.push(orientation(corners(&problem.uv, v)) * sign as i8);
+            let current = corners(&problem.uv, v);
+            total += signed_area2(current);
+            let product = orientation(current) * orientation(target);
+            agreement += f64::from(product) * signed_area2(target).abs();
         }
-        sign as i8
+        let patch: i8 = if total < 0.0 { -1 } else { 1 };
+        let mirror: i8 = if agreement < 0.0 { -1 } else { 1 };
+        self.tris.clear();
+        for (&v, &target) in problem.triangles.iter().zip(&problem.targets) {
+            let expected = match orientation(target) {
+                0 => patch,
+                o => mirror * o,
+            };
+            let (p, finv) = local_frame(target, f64::from(expected));
+            // Only triangles oriented as expected at the start are guarded: the others are flipped
+            // already, and the solver may (and should) unflip them.
+            let guarded = orientation(corners(&problem.uv, v)) == expected;
+            self.tris.push(TriData {
+                v,
+                p,
+                finv,
+                w: cot_weights(target),
+                slot: [NONE; 3],
+                expected,
+                guarded,
+            });
+        }
     }
 
     /// Builds the sparsity pattern of the upper triangle (sorted rows, no duplicates) and the map
@@ -600,18 +634,20 @@ impl ArapSolver {
         true
     }
 
-    /// The energy of `self.trial`, or `None` when it flips a triangle that was not flipped at the
-    /// start.
-    fn evaluate_trial(&self, problem: &LocalProblem, sign: i8) -> Option<f64> {
+    /// The energy of `self.trial`, and whether it is admissible: it must not flip a triangle that
+    /// was not flipped at the start (one that was oriented as expected and no longer is,
+    /// degenerate included).
+    fn evaluate_trial(&self, problem: &LocalProblem) -> (f64, bool) {
         let mut sum = EnergySum::default();
-        for ((t, &target), &o) in self.tris.iter().zip(&problem.targets).zip(&self.start_orient) {
+        let mut admissible = true;
+        for (t, &target) in self.tris.iter().zip(&problem.targets) {
             let x = corners(&self.trial, t.v);
-            if o == 1 && orientation(x) * sign != 1 {
-                return None;
+            if t.guarded && admissible && orientation(x) != t.expected {
+                admissible = false;
             }
             sum.add(target, x);
         }
-        Some(sum.mean())
+        (sum.mean(), admissible)
     }
 }
 
@@ -630,7 +666,7 @@ impl LocalSolver for ArapSolver {
         if self.free.is_empty() || energy == 0.0 || self.params.max_iterations == 0 {
             return Ok(report);
         }
-        let sign = self.prepare_triangles(problem);
+        self.prepare_triangles(problem);
         self.build_pattern();
         self.assemble(&problem.uv);
         let nf = self.free.len();
@@ -658,23 +694,47 @@ impl LocalSolver for ArapSolver {
         .map_err(|e| SolveError::Factorization(format!("symbolic analysis: {e:?}")))?;
         let factor = self.factorize(&symbolic)?;
 
+        // The iterates run on in `self.current`; `problem.uv` holds the best admissible one. An
+        // iterate that flips a guarded triangle or does not lower the best energy is not taken, but
+        // the iteration goes on from it: slivers (common in real atlases, e.g. nearly collinear
+        // corners snapped to the texel grid) flip transiently on the way to the optimum, and
+        // stopping there would leave the start unchanged. The run stops when the energy of the
+        // running iterates settles (relative change below the tolerance), or when it rises after
+        // `STALL_LIMIT` iterations in a row brought no better admissible iterate. (The running
+        // energy is not monotone: the isometric energy ignores the orientation that the ARAP
+        // objective sees, so a rise alone does not end the run.)
+        self.current.clear();
+        self.current.extend_from_slice(&problem.uv);
+        let mut running = energy;
+        let mut stalled = 0;
         while report.iterations < self.params.max_iterations {
             report.iterations += 1;
-            if !self.iterate(&problem.uv, &symbolic, factor) {
+            let current = std::mem::take(&mut self.current);
+            let finite = self.iterate(&current, &symbolic, factor);
+            self.current = current;
+            if !finite {
                 return Err(SolveError::Diverged);
             }
-            // Keep the best iterate: an energy increase or a new flip ends the solve unchanged.
-            let Some(next) = self.evaluate_trial(problem, sign) else { break };
-            if next > energy {
-                break;
+            let (next, admissible) = self.evaluate_trial(problem);
+            if admissible && next <= energy {
+                for &v in &self.free {
+                    problem.uv[v as usize] = self.trial[v as usize];
+                }
+                stalled = if next < energy { 0 } else { stalled + 1 };
+                energy = next;
+                report.energy_after = energy;
+            } else {
+                stalled += 1;
             }
-            for &v in &self.free {
-                problem.uv[v as usize] = self.trial[v as usize];
-            }
-            let decrease = (energy - next) / energy;
-            energy = next;
-            report.energy_after = energy;
-            if energy == 0.0 || decrease < self.params.tolerance {
+            let rising = next > running;
+            let change = (running - next).abs() / running;
+            running = next;
+            std::mem::swap(&mut self.current, &mut self.trial);
+            if energy == 0.0
+                || running == 0.0
+                || change < self.params.tolerance
+                || (rising && stalled >= STALL_LIMIT)
+            {
                 break;
             }
         }

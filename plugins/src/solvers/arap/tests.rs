@@ -89,14 +89,21 @@ fn check_contract(before: &LocalProblem, after: &LocalProblem, report: &SolveRep
         }
         assert!(b[0].is_finite() && b[1].is_finite(), "vertex {v} not finite");
     }
-    let sign = |p: &LocalProblem| {
-        let s: f64 = p.triangles.iter().map(|&t| signed_area2(corners(&p.uv, t))).sum();
-        if s < 0.0 { -1 } else { 1 }
-    };
-    let s = sign(before);
-    for &t in &before.triangles {
-        if orientation(corners(&before.uv, t)) == s {
-            assert_eq!(orientation(corners(&after.uv, t)), s, "triangle {t:?} flipped");
+    // A flip is a triangle that had its expected orientation at the start and lost it; expected is
+    // the target's orientation times the patch's mirror state (majority of current × target).
+    let agreement: f64 = before
+        .triangles
+        .iter()
+        .zip(&before.targets)
+        .map(|(&t, &g)| {
+            f64::from(orientation(corners(&before.uv, t)) * orientation(g)) * signed_area2(g).abs()
+        })
+        .sum();
+    let mirror = if agreement < 0.0 { -1 } else { 1 };
+    for (&t, &g) in before.triangles.iter().zip(&before.targets) {
+        let expected = mirror * orientation(g);
+        if expected != 0 && orientation(corners(&before.uv, t)) == expected {
+            assert_eq!(orientation(corners(&after.uv, t)), expected, "triangle {t:?} flipped");
         }
     }
     assert!(report.energy_after <= report.energy_before, "{report:?}");
@@ -221,6 +228,27 @@ fn mirrored_targets_and_mirrored_patches() {
     let report = solve(&mut p).expect("solve");
     check_contract(&before, &p, &report);
     assert!(report.energy_after < 1e-6, "{report:?}");
+}
+
+#[test]
+fn folds_of_the_original_layout_are_kept() {
+    let (nx, ny) = (10, 10);
+    let (mut rest, tris) = grid(nx, ny, 0.0, [0.0, 0.0], 15);
+    // Fold the original layout: push vertex (4, 4) past its neighbour (5, 4), which inverts some of
+    // its triangles. The current layout is the unfolded grid, as a merge might leave it.
+    let v = 4 * nx + 4;
+    let uv = rest.clone();
+    rest[v] = [5.4, 4.2];
+    let before = problem(uv, &rest, tris, border_fixed(nx, ny));
+    let folded = before.targets.iter().filter(|t| orientation(**t) < 0).count();
+    assert!(folded >= 1);
+    let mut p = before.clone();
+    let report = solve(&mut p).expect("solve");
+    check_contract(&before, &p, &report);
+    // The reflection-invariant energy calls the original perfect: the solver returns to it, folds
+    // included, instead of fighting them.
+    assert!(report.energy_after < 1e-6, "{report:?}");
+    assert!((p.uv[v][0] - 5.4).abs() < 1e-3 && (p.uv[v][1] - 4.2).abs() < 1e-3, "{:?}", p.uv[v]);
 }
 
 #[test]
