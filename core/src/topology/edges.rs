@@ -77,34 +77,37 @@ pub(crate) fn build_adjacency(corner_pos: &[PosId], n_pos: usize) -> Adjacency {
     for p in 0..n_pos {
         start[p + 1] += start[p];
     }
+    // Each bucket slot packs `(hi << 32) | h`, so a bucket sorts as plain integers without
+    // touching the corner table again.
     let mut fill = start.clone();
-    let mut edge_sides = vec![HalfEdgeId::NONE; nh];
+    let mut packed = vec![0u64; nh];
     for h in 0..nh {
-        let lo = ends(h).0.idx();
-        edge_sides[fill[lo] as usize] = HalfEdgeId::from_usize(h);
-        fill[lo] += 1;
+        let (lo, hi) = ends(h);
+        packed[fill[lo.idx()] as usize] = (u64::from(hi.0) << 32) | h as u64;
+        fill[lo.idx()] += 1;
     }
     drop(fill);
 
     let mut edges = Vec::with_capacity(nh / 2 + 1);
     let mut he_edge = vec![EdgeId::NONE; nh];
+    let mut edge_sides = vec![HalfEdgeId::NONE; nh];
     for p in 0..n_pos {
         let (s, e) = (start[p] as usize, start[p + 1] as usize);
-        let star = &mut edge_sides[s..e];
-        star.sort_unstable_by_key(|h| (ends(h.idx()).1, *h));
+        let star = &mut packed[s..e];
+        star.sort_unstable();
         let mut i = 0;
         while i < star.len() {
-            let hi = ends(star[i].idx()).1;
-            let mut j = i + 1;
-            while j < star.len() && ends(star[j].idx()).1 == hi {
+            let hi = star[i] >> 32;
+            let mut j = i;
+            let id = EdgeId::from_usize(edges.len());
+            while j < star.len() && star[j] >> 32 == hi {
+                let h = (star[j] & 0xffff_ffff) as usize;
+                he_edge[h] = id;
+                edge_sides[s + j] = HalfEdgeId::from_usize(h);
                 j += 1;
             }
-            let id = EdgeId::from_usize(edges.len());
-            for h in &star[i..j] {
-                he_edge[h.idx()] = id;
-            }
             edges.push(MeshEdge {
-                v: [PosId::from_usize(p), hi],
+                v: [PosId::from_usize(p), PosId(hi as u32)],
                 first_side: (s + i) as u32,
                 n_sides: (j - i) as u32,
             });

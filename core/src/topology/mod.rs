@@ -93,8 +93,12 @@ pub struct PreparationReport {
     pub inconsistent_edge_pairs: u64,
     /// Linked pairs (seams between mergeable faces).
     pub seams: u64,
-    /// Two-sided edges with different UVs on their sides where a side is frozen.
+    /// Two-sided edges with different UVs on their sides where a side is frozen (`seams +
+    /// frozen_seams` is the evaluator's `uv_seam_edges_3d`).
     pub frozen_seams: u64,
+    /// Two-sided edges with the same UVs on both sides that became chart borders because one
+    /// side is frozen.
+    pub frozen_borders: u64,
     pub chains: u64,
     pub closed_chains: u64,
     pub inter_ops: u64,
@@ -265,7 +269,8 @@ impl Topology {
         let links = seams::find_links(
             &adj,
             &corner_pos,
-            &uv.corner_uv,
+            &uv,
+            &face_sheet,
             &face_flags,
             &labels.face_chart,
             &he_uv_twin,
@@ -307,6 +312,7 @@ impl Topology {
             inconsistent_edge_pairs: adj.inconsistent_pairs,
             seams: links.links.len() as u64,
             frozen_seams: links.frozen_seams,
+            frozen_borders: links.frozen_borders,
             chains: chains.chains.len() as u64,
             closed_chains: chains.chains.iter().filter(|c| c.closed).count() as u64,
             inter_ops: ops.ops.iter().filter(|o| o.kind == OpKind::Inter).count() as u64,

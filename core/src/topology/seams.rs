@@ -1,7 +1,7 @@
 //! Seams: linked half-edge pairs (the two sides of a seam mesh edge, with the UV vertices to
 //! fuse at each end) and their maximal chains (digest §3.4, §3.5, §3.7).
 
-use super::charts::pair_corners;
+use super::charts::{UvVertices, pair_corners};
 use super::edges::Adjacency;
 use super::ids::{ChainId, ChartId, EdgeId, HalfEdgeId, LinkId, PosId, UvVertId};
 use super::texel::FrozenReasons;
@@ -48,9 +48,12 @@ impl Chain {
 pub(crate) struct Links {
     pub links: Vec<LinkedPair>,
     pub he_link: Vec<LinkId>,
-    /// Two-sided edges with different UVs on both sides where one side is frozen: UV borders
+    /// Two-sided edges with different UVs on their sides where a side is frozen: input seams
     /// that no operation dissolves.
     pub frozen_seams: u64,
+    /// Two-sided edges whose sides had the same UVs in the input but lie in different charts
+    /// because one side is frozen (borders created by isolating frozen faces).
+    pub frozen_borders: u64,
 }
 
 /// Finds the linked pairs: two-sided, non-degenerate mesh edges whose sides are not UV twins
@@ -58,14 +61,16 @@ pub(crate) struct Links {
 pub(crate) fn find_links(
     adj: &Adjacency,
     corner_pos: &[PosId],
-    corner_uv: &[UvVertId],
+    uv: &UvVertices,
+    face_sheet: &[u32],
     face_flags: &[FrozenReasons],
     face_chart: &[ChartId],
     he_uv_twin: &[HalfEdgeId],
 ) -> Links {
+    let (corner_uv, uv_pos) = (&uv.corner_uv, &uv.uv_pos);
     let mut links = Vec::new();
     let mut he_link = vec![LinkId::NONE; corner_pos.len()];
-    let mut frozen_seams = 0;
+    let (mut frozen_seams, mut frozen_borders) = (0, 0);
     for (e, edge) in adj.edges.iter().enumerate() {
         if edge.n_sides != 2 || edge.is_degenerate() {
             continue;
@@ -78,7 +83,14 @@ pub(crate) fn find_links(
             continue;
         }
         if face_flags[a.face()].is_frozen() || face_flags[b.face()].is_frozen() {
-            frozen_seams += 1;
+            let [[a0, b0], [a1, b1]] = pair_corners(corner_pos, a, b);
+            let same =
+                |x: usize, y: usize| uv_pos[corner_uv[x].idx()] == uv_pos[corner_uv[y].idx()];
+            if face_sheet[a.face()] == face_sheet[b.face()] && same(a0, b0) && same(a1, b1) {
+                frozen_borders += 1;
+            } else {
+                frozen_seams += 1;
+            }
             continue;
         }
         if (face_chart[b.face()], b) < (face_chart[a.face()], a) {
@@ -101,7 +113,7 @@ pub(crate) fn find_links(
             fuse: [[corner_uv[lo[0]], corner_uv[lo[1]]], [corner_uv[hi[0]], corner_uv[hi[1]]]],
         });
     }
-    Links { links, he_link, frozen_seams }
+    Links { links, he_link, frozen_seams, frozen_borders }
 }
 
 /// Output of the chain stage.

@@ -404,6 +404,8 @@ fn zero_area_and_uvless_faces_are_frozen_in_charts_of_their_own() {
     assert_ne!(t.face_chart[0], t.face_chart[1]);
     assert!(t.charts.iter().filter(|c| c.frozen).count() == 4);
     assert_eq!((t.report.seams, t.report.inter_ops, t.report.intra_ops), (0, 0, 0));
+    // Edges 0-2 and 0-1 had the same UVs on both sides; 1-4, 1-2 and 1-5 did not.
+    assert_eq!((t.report.frozen_borders, t.report.frozen_seams), (2, 3));
 }
 
 #[test]
@@ -509,4 +511,10 @@ fn rejects_mismatched_sheet_sizes_and_bad_indices() {
     ));
     m.faces[0].v[2] = VertexId(7);
     assert!(matches!(Topology::build(&m, &[Some((4, 4))]), Err(TopologyError::InvalidModel(_))));
+}
+
+#[test]
+fn empty_model_prepares_to_nothing() {
+    let t = build(&model(vec![], &[]));
+    assert_eq!((t.report.faces, t.report.charts, t.report.mesh_edges, t.ops.len()), (0, 0, 0, 0));
 }

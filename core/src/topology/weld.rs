@@ -22,23 +22,23 @@ fn coord_bits(x: f64) -> u64 {
 /// its vertex numbering; a sort (not a hash map) keeps the pass fast and deterministic.
 pub(crate) fn weld_positions(positions: &[[f64; 3]]) -> (Vec<PosId>, usize) {
     let n = positions.len();
-    let key = |i: u32| {
-        let p = positions[i as usize];
-        (coord_bits(p[0]), coord_bits(p[1]), coord_bits(p[2]))
-    };
-    let mut order: Vec<u32> = (0..n as u32).collect();
+    // Keys are computed once, so the sort compares local data instead of chasing positions.
+    let mut order: Vec<([u64; 3], u32)> = positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| ([coord_bits(p[0]), coord_bits(p[1]), coord_bits(p[2])], i as u32))
+        .collect();
     // Ties are broken by index, so the first vertex of each group is its representative.
-    order.sort_unstable_by_key(|&i| (key(i), i));
+    order.sort_unstable();
     let mut rep = vec![0u32; n];
     let mut start = 0;
     while start < n {
-        let k = key(order[start]);
         let mut end = start + 1;
-        while end < n && key(order[end]) == k {
+        while end < n && order[end].0 == order[start].0 {
             end += 1;
         }
-        for &i in &order[start..end] {
-            rep[i as usize] = order[start];
+        for &(_, i) in &order[start..end] {
+            rep[i as usize] = order[start].1;
         }
         start = end;
     }
