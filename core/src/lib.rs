@@ -14,6 +14,7 @@ pub mod pipeline;
 pub mod plugin;
 pub mod synth;
 pub mod texture;
+pub mod topology;
 
 pub use index::{FaceId, MaterialId, NormalId, SheetId, UvId, VertexId};
 pub use model::{Face, ImageSource, Material, Model, ModelFormat, Sheet};
