@@ -28,10 +28,17 @@ impl AtomicFile {
             _ => PathBuf::from("."),
         };
         let name = target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        let temp = tempfile::Builder::new()
-            .prefix(&format!(".{name}."))
-            .suffix(".tmp")
-            .tempfile_in(&dir)?;
+        let prefix = format!(".{name}.");
+        let mut builder = tempfile::Builder::new();
+        builder.prefix(&prefix).suffix(".tmp");
+        // Temporary files are private (0600) by default; an output is an ordinary file that other
+        // users and tools must be able to read, like one written by `File::create`.
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            builder.permissions(std::fs::Permissions::from_mode(0o644));
+        }
+        let temp = builder.tempfile_in(&dir)?;
         Ok(Self { target: target.to_path_buf(), temp: Some(temp) })
     }
 
@@ -118,8 +125,10 @@ mod tests {
         let input = dir.path().join("in.obj");
         std::fs::write(&input, b"v 0 0 0\n").unwrap();
         let alias = dir.path().join(".").join("in.obj");
-        let err = write_atomic::<io::Error, _>(&alias, &[input.clone()], |w| w.write_all(b"x"))
-            .unwrap_err();
+        let err = write_atomic::<io::Error, _>(&alias, std::slice::from_ref(&input), |w| {
+            w.write_all(b"x")
+        })
+        .unwrap_err();
         assert!(err.to_string().contains("refusing to overwrite"));
         assert_eq!(std::fs::read(&input).unwrap(), b"v 0 0 0\n");
     }

@@ -167,29 +167,19 @@ impl Model {
             if f.v.iter().any(|v| v.idx() >= np) {
                 return Err(format!("face {i}: position index out of range (have {np})"));
             }
-            if let Some(t) = f.uv {
-                if t.iter().any(|t| t.idx() >= nt) {
-                    return Err(format!(
-                        "face {i}: texture-coordinate index out of range (have {nt})"
-                    ));
-                }
+            if f.uv.is_some_and(|t| t.iter().any(|t| t.idx() >= nt)) {
+                return Err(format!("face {i}: texture-coordinate index out of range (have {nt})"));
             }
-            if let Some(n) = f.n {
-                if n.iter().any(|n| n.idx() >= nn) {
-                    return Err(format!("face {i}: normal index out of range (have {nn})"));
-                }
+            if f.n.is_some_and(|n| n.iter().any(|n| n.idx() >= nn)) {
+                return Err(format!("face {i}: normal index out of range (have {nn})"));
             }
-            if let Some(m) = f.material {
-                if m.idx() >= self.materials.len() {
-                    return Err(format!("face {i}: material index out of range"));
-                }
+            if f.material.is_some_and(|m| m.idx() >= self.materials.len()) {
+                return Err(format!("face {i}: material index out of range"));
             }
         }
         for (i, m) in self.materials.iter().enumerate() {
-            if let Some(s) = m.sheet {
-                if s.idx() >= self.sheets.len() {
-                    return Err(format!("material {i}: sheet index out of range"));
-                }
+            if m.sheet.is_some_and(|s| s.idx() >= self.sheets.len()) {
+                return Err(format!("material {i}: sheet index out of range"));
             }
         }
         Ok(())

@@ -3,8 +3,8 @@
 //! `seam-edges` (the reference fork's variant without the boundary filter).
 
 use scanatlas_core::plugin::{
-    MergeScorer, OpFeatures, ParamInfo, ParamValue, Params, PluginError, PluginInfo, PluginKind, Registry,
-    Score, Veto, get_f64,
+    MergeScorer, OpFeatures, ParamInfo, ParamValue, Params, PluginError, PluginInfo, PluginKind,
+    Registry, Score, Veto, get_f64,
 };
 
 /// Which terms of eq. 5 a scorer keeps.
@@ -106,7 +106,8 @@ impl MergeScorer for PaperScorer {
             }
             Variant::SeamEdges => op.mean_match_error / op.seam_edges.max(1) as f64 * min_area,
             Variant::Random => {
-                let h = splitmix(self.seed ^ splitmix(((op.op_id as u64) << 32) | op.failures as u64));
+                let h =
+                    splitmix(self.seed ^ splitmix(((op.op_id as u64) << 32) | op.failures as u64));
                 // Uniform in (0, 1]: never zero, so the appeal stays finite.
                 let u = ((h >> 11) as f64 + 1.0) / (1u64 << 53) as f64;
                 return Score::Appeal(u);
@@ -166,22 +167,38 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
     let table: [(Variant, PluginInfo); 5] = [
         (
             Variant::Paper,
-            info("paper", "Appeal = Benefit/Cost · SizeBonus · BackOff (eq. 5) with the m and b filters", vec![]),
+            info(
+                "paper",
+                "Appeal = Benefit/Cost · SizeBonus · BackOff (eq. 5) with the m and b filters",
+                vec![],
+            ),
         ),
         (
             Variant::NoBenefitCost,
-            info("no-benefit-cost", "Ablation NoBC: SizeBonus · BackOff only (filters kept)", vec![]),
+            info(
+                "no-benefit-cost",
+                "Ablation NoBC: SizeBonus · BackOff only (filters kept)",
+                vec![],
+            ),
         ),
         (
             Variant::NoSizeBonus,
-            info("no-size-bonus", "Ablation NoSB: Benefit/Cost · BackOff only (filters kept)", vec![]),
+            info(
+                "no-size-bonus",
+                "Ablation NoSB: Benefit/Cost · BackOff only (filters kept)",
+                vec![],
+            ),
         ),
         (
             Variant::Random,
             info(
                 "random",
                 "Ablation: seeded random order (filters kept)",
-                vec![ParamInfo { name: "seed", default: ParamValue::Int(0), help: "seed of the order" }],
+                vec![ParamInfo {
+                    name: "seed",
+                    default: ParamValue::Int(0),
+                    help: "seed of the order",
+                }],
             ),
         ),
         (
@@ -195,7 +212,9 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
     ];
     for (variant, info) in table {
         let captured = info.clone();
-        registry.register_scorer(info, move |p| Ok(Box::new(build(variant, &captured, p)?) as Box<dyn MergeScorer>))?;
+        registry.register_scorer(info, move |p| {
+            Ok(Box::new(build(variant, &captured, p)?) as Box<dyn MergeScorer>)
+        })?;
     }
     Ok(())
 }
@@ -243,14 +262,29 @@ mod tests {
     fn filters_veto_in_the_reference_order() {
         let s = scorer("paper");
         assert_eq!(s.score(&OpFeatures { uv_area_b: 0.0, ..op() }), Score::Veto(Veto::ZeroArea));
-        assert_eq!(s.score(&OpFeatures { area_3d_a: f64::NAN, ..op() }), Score::Veto(Veto::ZeroArea));
+        assert_eq!(
+            s.score(&OpFeatures { area_3d_a: f64::NAN, ..op() }),
+            Score::Veto(Veto::ZeroArea)
+        );
         let thin = OpFeatures { seam_length_a: 1.0, seam_length_b: 1.0, ..op() };
         assert_eq!(s.score(&thin), Score::Veto(Veto::Boundary));
-        assert!(matches!(s.score(&OpFeatures { island_lookahead: true, ..thin }), Score::Appeal(_)));
+        assert!(matches!(
+            s.score(&OpFeatures { island_lookahead: true, ..thin }),
+            Score::Appeal(_)
+        ));
         let intra_thin = OpFeatures { inter_chart: false, ..thin };
-        assert!(matches!(s.score(&intra_thin), Score::Appeal(_)), "boundary filter is inter-chart only");
-        assert_eq!(s.score(&OpFeatures { mean_match_error: 20.5, ..op() }), Score::Veto(Veto::Matching));
-        assert!(matches!(s.score(&OpFeatures { mean_match_error: 20.0, ..op() }), Score::Appeal(_)));
+        assert!(
+            matches!(s.score(&intra_thin), Score::Appeal(_)),
+            "boundary filter is inter-chart only"
+        );
+        assert_eq!(
+            s.score(&OpFeatures { mean_match_error: 20.5, ..op() }),
+            Score::Veto(Veto::Matching)
+        );
+        assert!(matches!(
+            s.score(&OpFeatures { mean_match_error: 20.0, ..op() }),
+            Score::Appeal(_)
+        ));
     }
 
     #[test]
@@ -267,7 +301,8 @@ mod tests {
             let s = scorer(name);
             for e in [0.0, 1e-300, 1e-3, 1.0, 1e300] {
                 for k in [0, 1, 60, 5000] {
-                    let o = OpFeatures { mean_match_error: e, failures: k, uv_area_b: 1e-300, ..op() };
+                    let o =
+                        OpFeatures { mean_match_error: e, failures: k, uv_area_b: 1e-300, ..op() };
                     if let Score::Appeal(a) = s.score(&o) {
                         assert!(a.is_finite() && a >= 0.0, "{name}: {a}");
                     }

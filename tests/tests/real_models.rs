@@ -16,7 +16,8 @@ const MODELS: [&str; 3] = [
 ];
 
 fn evaluator_input_stats(model: &Path) -> serde_json::Value {
-    let evaluate = std::env::var_os("SCANATLAS_EVALUATE").expect("SCANATLAS_EVALUATE must name evaluate.py");
+    let evaluate =
+        std::env::var_os("SCANATLAS_EVALUATE").expect("SCANATLAS_EVALUATE must name evaluate.py");
     let python = std::env::var_os("SCANATLAS_PYTHON").unwrap_or_else(|| "python3".into());
     let out = Command::new(python)
         .arg(evaluate)
@@ -74,7 +75,8 @@ fn real_models_round_trip_through_every_format() {
         let input = read_model(&data.join(rel)).unwrap_or_else(|e| panic!("{rel}: {e}"));
         for ext in ["obj", "gltf", "glb", "ply"] {
             let out: PathBuf = dir.path().join(format!("rt.{ext}"));
-            write_model(&input, &out, &WriteOptions::default()).unwrap_or_else(|e| panic!("{rel} → {ext}: {e}"));
+            write_model(&input, &out, &WriteOptions::default())
+                .unwrap_or_else(|e| panic!("{rel} → {ext}: {e}"));
             let back = read_model(&out).unwrap_or_else(|e| panic!("{rel} → {ext} → read: {e}"));
             // glTF stores f32; our OBJ and PLY writers keep f64 exactly.
             let tol = if ext.starts_with("gl") { 1e-6 } else { 0.0 };
@@ -102,7 +104,10 @@ fn real_textures_survive_the_tile_store_bit_exactly() {
     let tif = dir.path().join("t.tif");
     write_image(&store, &tif, &EncodeOptions::default()).unwrap();
     let back = decode_to_store(&scanatlas_core::ImageSource::File(tif), dir.path()).unwrap();
-    assert_eq!((store.width(), store.height(), store.format()), (back.width(), back.height(), back.format()));
+    assert_eq!(
+        (store.width(), store.height(), store.format()),
+        (back.width(), back.height(), back.format())
+    );
     for ty in 0..store.tiles_y() {
         for tx in 0..store.tiles_x() {
             let r = store.tile_rect(tx, ty);

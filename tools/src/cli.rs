@@ -5,7 +5,11 @@ use std::path::PathBuf;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
 #[derive(Debug, Parser)]
-#[command(name = "scanatlas", version, about = "Repairs and builds texture atlases of huge photogrammetry scans")]
+#[command(
+    name = "scanatlas",
+    version,
+    about = "Repairs and builds texture atlases of huge photogrammetry scans"
+)]
 pub struct Cli {
     #[command(flatten)]
     pub global: GlobalArgs,
@@ -90,6 +94,9 @@ pub struct SynthArgs {
     /// Side of each square texture sheet in pixels.
     #[arg(long, default_value_t = 2048)]
     pub sheet_size: u32,
+    /// How many sheets the atlas should fill (sets the texel density).
+    #[arg(long, default_value_t = 1)]
+    pub sheets: u32,
     /// Random seed; the same seed gives the same bytes.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,

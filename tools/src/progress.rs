@@ -22,7 +22,9 @@ impl Stage {
             return Self { bar: None };
         }
         let bar = ProgressBar::new_spinner();
-        bar.set_style(ProgressStyle::with_template("{spinner} {msg} {elapsed}").expect("valid template"));
+        bar.set_style(
+            ProgressStyle::with_template("{spinner} {msg} {elapsed}").expect("valid template"),
+        );
         bar.set_message(msg.to_string());
         bar.enable_steady_tick(Duration::from_millis(120));
         Self { bar: Some(bar) }

@@ -121,8 +121,8 @@ fn bad_textures_fail_cleanly() {
 
 /// A PNG signature and IHDR chunk declaring a 0x0 image.
 const ZERO_PNG_HEADER: [u8; 33] = [
-    0x89, b'P', b'N', b'G', b'\r', b'\n', 0x1a, b'\n', 0, 0, 0, 13, b'I', b'H', b'D', b'R', 0, 0, 0, 0,
-    0, 0, 0, 0, 8, 2, 0, 0, 0, 0x2e, 0x7b, 0x43, 0x8a,
+    0x89, b'P', b'N', b'G', b'\r', b'\n', 0x1a, b'\n', 0, 0, 0, 13, b'I', b'H', b'D', b'R', 0, 0,
+    0, 0, 0, 0, 0, 0, 8, 2, 0, 0, 0, 0x2e, 0x7b, 0x43, 0x8a,
 ];
 
 #[test]
@@ -148,11 +148,18 @@ fn demo_runs_without_input_and_synth_is_deterministic() {
     assert!(d.join("demo-out/scan.obj").exists());
 
     for run in ["a", "b"] {
-        let out = scanatlas(&["synth", run, "--faces", "3000", "--sheet-size", "256", "--seed", "5", "-q"], d);
+        let out = scanatlas(
+            &["synth", run, "--faces", "3000", "--sheet-size", "256", "--seed", "5", "-q"],
+            d,
+        );
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     }
     for f in ["scan.obj", "scan.mtl", "sheet_0.png"] {
-        assert_eq!(std::fs::read(d.join("a").join(f)).unwrap(), std::fs::read(d.join("b").join(f)).unwrap(), "{f}");
+        assert_eq!(
+            std::fs::read(d.join("a").join(f)).unwrap(),
+            std::fs::read(d.join("b").join(f)).unwrap(),
+            "{f}"
+        );
     }
 }
 
@@ -165,8 +172,11 @@ fn convert_round_trips_through_every_format() {
     let base = scanatlas(&["stats", "s/scan.obj", "--json"], d);
     assert!(base.status.success());
     let base: serde_json::Value = serde_json::from_slice(&base.stdout).unwrap();
-    for (model, tex) in [("c/a.gltf", "png"), ("c/b.glb", "tiff"), ("c/c.ply", "exr"), ("c/d.obj", "png")] {
-        let out = scanatlas(&["convert", "s/scan.obj", "-o", model, "--texture-format", tex, "-q"], d);
+    for (model, tex) in
+        [("c/a.gltf", "png"), ("c/b.glb", "tiff"), ("c/c.ply", "exr"), ("c/d.obj", "png")]
+    {
+        let out =
+            scanatlas(&["convert", "s/scan.obj", "-o", model, "--texture-format", tex, "-q"], d);
         assert!(out.status.success(), "{model}: {}", String::from_utf8_lossy(&out.stderr));
         let st = scanatlas(&["stats", model, "--json"], d);
         assert!(st.status.success(), "{model}: {}", String::from_utf8_lossy(&st.stderr));
@@ -174,7 +184,8 @@ fn convert_round_trips_through_every_format() {
         for key in ["faces", "vertices_3d", "charts_edge", "total_texels", "texture_sheets"] {
             assert_eq!(v[key], base[key], "{model}: {key}");
         }
-        let (a, b) = (v["atlas_solidity"].as_f64().unwrap(), base["atlas_solidity"].as_f64().unwrap());
+        let (a, b) =
+            (v["atlas_solidity"].as_f64().unwrap(), base["atlas_solidity"].as_f64().unwrap());
         assert!((a - b).abs() <= 1e-5 * b, "{model}: solidity {a} vs {b}");
     }
 }

@@ -37,7 +37,11 @@ pub fn output_sheet_path(output: &Path, k: usize, format: ImageFormat) -> PathBu
 }
 
 /// Converts `input` to `output`; never overwrites the input or its textures.
-pub fn convert(input: &Path, output: &Path, opts: &ConvertOptions) -> Result<ConvertReport, PipelineError> {
+pub fn convert(
+    input: &Path,
+    output: &Path,
+    opts: &ConvertOptions,
+) -> Result<ConvertReport, PipelineError> {
     let t0 = Instant::now();
     let mut model = super::load_model(input)?;
     let read_seconds = t0.elapsed().as_secs_f64();

@@ -47,5 +47,6 @@ pub fn sheet_sizes(model: &Model) -> Vec<Option<(u32, u32)>> {
 
 /// Creates a folder (and its parents), naming it in the error.
 pub fn create_dir(path: &Path) -> Result<(), PipelineError> {
-    std::fs::create_dir_all(path).map_err(|e| PipelineError::File { path: path.to_path_buf(), source: e })
+    std::fs::create_dir_all(path)
+        .map_err(|e| PipelineError::File { path: path.to_path_buf(), source: e })
 }

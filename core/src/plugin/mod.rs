@@ -6,7 +6,9 @@
 
 mod registry;
 
-pub use registry::{get_f64, ParamInfo, ParamValue, Params, PluginError, PluginInfo, PluginKind, Registry};
+pub use registry::{
+    ParamInfo, ParamValue, Params, PluginError, PluginInfo, PluginKind, Registry, get_f64,
+};
 
 /// What a scorer knows of a candidate merge operation: cheap, precomputed chart and seam features,
 /// all in texel units of the shared texel space.
@@ -91,7 +93,13 @@ impl LocalProblem {
         if self.triangles.iter().flatten().any(|&v| v as usize >= n) {
             return Err(SolveError::Malformed("triangle corner out of range".into()));
         }
-        if self.uv.iter().flatten().chain(self.targets.iter().flatten().flatten()).any(|c| !c.is_finite()) {
+        if self
+            .uv
+            .iter()
+            .flatten()
+            .chain(self.targets.iter().flatten().flatten())
+            .any(|c| !c.is_finite())
+        {
             return Err(SolveError::NonFinite);
         }
         Ok(())

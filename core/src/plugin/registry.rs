@@ -67,8 +67,10 @@ pub enum PluginError {
     Duplicate { kind: PluginKind, name: String },
 }
 
-type ScorerFactory = Box<dyn Fn(&Params) -> Result<Box<dyn MergeScorer>, PluginError> + Send + Sync>;
-type SolverFactory = Box<dyn Fn(&Params) -> Result<Box<dyn LocalSolver>, PluginError> + Send + Sync>;
+type ScorerFactory =
+    Box<dyn Fn(&Params) -> Result<Box<dyn MergeScorer>, PluginError> + Send + Sync>;
+type SolverFactory =
+    Box<dyn Fn(&Params) -> Result<Box<dyn LocalSolver>, PluginError> + Send + Sync>;
 
 struct Entry<F> {
     info: PluginInfo,
@@ -157,7 +159,11 @@ impl Registry {
 
     /// Every registered plugin, by kind then name.
     pub fn infos(&self) -> Vec<&PluginInfo> {
-        self.scorers.values().map(|e| &e.info).chain(self.solvers.values().map(|e| &e.info)).collect()
+        self.scorers
+            .values()
+            .map(|e| &e.info)
+            .chain(self.solvers.values().map(|e| &e.info))
+            .collect()
     }
 }
 

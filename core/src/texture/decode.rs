@@ -90,4 +90,3 @@ pub fn decode_to_store(src: &ImageSource, work_dir: &Path) -> Result<TileStore, 
         other => other,
     })
 }
-

@@ -135,7 +135,8 @@ impl ImageFormat {
             crate::model::ImageSource::File(path) => {
                 let mut f = std::fs::File::open(path)
                     .map_err(|e| TextureError::File { path: path.clone(), source: e })?;
-                f.read(&mut head).map_err(|e| TextureError::File { path: path.clone(), source: e })?
+                f.read(&mut head)
+                    .map_err(|e| TextureError::File { path: path.clone(), source: e })?
             }
             crate::model::ImageSource::Embedded { bytes, .. } => {
                 let n = bytes.len().min(8);

@@ -22,7 +22,8 @@ pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
     };
     let written = super::synth::write(&out_dir, &params, ModelFormatArg::Obj, quiet)?;
     let model = pipeline::load_model(&written.model)?;
-    let stats = atlas_stats(&model, &pipeline::sheet_sizes(&model), &StatsOptions { overlaps: true });
+    let stats =
+        atlas_stats(&model, &pipeline::sheet_sizes(&model), &StatsOptions { overlaps: true });
     println!("scanatlas demo: a synthetic photogrammetry scan in {}", out_dir.display());
     print!("{}", super::stats::human(&written.model.display().to_string(), &stats));
     println!(

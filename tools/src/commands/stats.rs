@@ -8,7 +8,11 @@ use crate::cli::StatsArgs;
 
 pub fn run(args: &StatsArgs) -> Result<()> {
     let model = pipeline::load_model(&args.model)?;
-    let stats = atlas_stats(&model, &pipeline::sheet_sizes(&model), &StatsOptions { overlaps: !args.no_overlaps });
+    let stats = atlas_stats(
+        &model,
+        &pipeline::sheet_sizes(&model),
+        &StatsOptions { overlaps: !args.no_overlaps },
+    );
     if args.json {
         println!("{}", serde_json::to_string_pretty(&stats).context("serializing the figures")?);
     } else {
@@ -33,17 +37,23 @@ pub fn human(name: &str, s: &AtlasStats) -> String {
     let sizes: Vec<String> = s
         .texture_sizes
         .iter()
-        .map(|z| z.map(|(w, h)| format!("{w}x{h}")).unwrap_or_else(|| "?".into()))
+        .map(|z| match (z.width, z.height) {
+            (Some(w), Some(h)) => format!("{w}x{h}"),
+            _ => "?".into(),
+        })
         .collect();
     line("sheets", format!("{} [{}]", s.texture_sheets, sizes.join(", ")));
     line("total texels", s.total_texels.to_string());
     line("faces without UV", s.faces_without_uv.to_string());
-    line("zero-area faces (3D / UV)", format!("{} / {}", s.zero_area_3d_faces, s.uv_degenerate_faces));
+    line(
+        "zero-area faces (3D / UV)",
+        format!("{} / {}", s.uv_zero_area_3d_faces, s.uv_degenerate_faces),
+    );
     line("flipped UV faces", s.uv_flipped_faces.to_string());
     line("non-manifold edges", s.non_manifold_edges.to_string());
     line(
         "overlapping texels",
-        s.overlapping_texels.map(|n| n.to_string()).unwrap_or_else(|| "not computed".into()),
+        s.overlap_texels.map(|n| n.to_string()).unwrap_or_else(|| "not computed".into()),
     );
     out
 }

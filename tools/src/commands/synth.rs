@@ -13,7 +13,6 @@ use crate::progress::Stage;
 /// Where a synthetic scan was written.
 pub struct Written {
     pub model: PathBuf,
-    pub params: PathBuf,
     pub report: synth::SynthReport,
 }
 
@@ -29,8 +28,10 @@ pub fn run(args: &SynthArgs, quiet: bool) -> Result<()> {
         cameras: args.cameras,
         sheet_size: args.sheet_size,
         seed: args.seed,
+        sheets: args.sheets,
         ..SynthParams::default()
     };
+    let t0 = std::time::Instant::now();
     let w = write(&args.out_dir, &params, args.format, quiet)?;
     if !quiet {
         eprintln!(
@@ -39,14 +40,19 @@ pub fn run(args: &SynthArgs, quiet: bool) -> Result<()> {
             w.report.faces,
             w.report.charts,
             w.report.sheets,
-            w.report.seconds
+            t0.elapsed().as_secs_f64()
         );
     }
     Ok(())
 }
 
 /// Generates and writes a synthetic scan into `out_dir`: the model, its sheets and `synth.json`.
-pub fn write(out_dir: &Path, params: &SynthParams, format: ModelFormatArg, quiet: bool) -> Result<Written> {
+pub fn write(
+    out_dir: &Path,
+    params: &SynthParams,
+    format: ModelFormatArg,
+    quiet: bool,
+) -> Result<Written> {
     std::fs::create_dir_all(out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
     let stage = Stage::spinner("generating synthetic scan", quiet);
     let out = synth::generate(params, out_dir)?;
@@ -77,5 +83,5 @@ pub fn write(out_dir: &Path, params: &SynthParams, format: ModelFormatArg, quiet
         w.write_all(b"\n")
     })
     .with_context(|| format!("writing {}", params_path.display()))?;
-    Ok(Written { model: model_path, params: params_path, report: out.report })
+    Ok(Written { model: model_path, report: out.report })
 }
