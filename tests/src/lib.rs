@@ -15,14 +15,20 @@ pub fn real_data() -> PathBuf {
     p
 }
 
-/// Asserts that two models have the same faces in the same order: positions exactly, UVs within
-/// `uv_tol` (f32 storage), and the same sheet per face.
+/// Asserts that two models have the same faces in the same order: positions exactly (or rounded
+/// to f32 when `f32_positions`, as glTF stores them), UVs within `uv_tol`, and the same sheet per
+/// face.
 #[track_caller]
-pub fn assert_same_faces(a: &Model, b: &Model, uv_tol: f64) {
+pub fn assert_same_faces(a: &Model, b: &Model, f32_positions: bool, uv_tol: f64) {
     assert_eq!(a.faces.len(), b.faces.len(), "face count");
     for f in a.face_ids() {
         let (pa, pb) = (a.face_positions(f), b.face_positions(f));
-        assert_eq!(pa, pb, "positions of face {f}");
+        if f32_positions {
+            let round = |p: [[f64; 3]; 3]| p.map(|c| c.map(|x| x as f32));
+            assert_eq!(round(pa), round(pb), "positions of face {f}");
+        } else {
+            assert_eq!(pa, pb, "positions of face {f}");
+        }
         match (a.face_uvs(f), b.face_uvs(f)) {
             (Some(ua), Some(ub)) => {
                 for k in 0..3 {
