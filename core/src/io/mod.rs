@@ -6,6 +6,7 @@
 
 pub mod gltf;
 pub mod obj;
+pub(crate) mod paths;
 pub mod ply;
 
 use std::path::{Path, PathBuf};

@@ -1,7 +1,7 @@
 //! URI helpers for glTF: percent-decoding and encoding of relative file references, `data:` URIs
 //! and relative paths from an output directory to a file.
 
-use std::path::{Component, Path, PathBuf};
+use std::path::Path;
 
 use base64::Engine as _;
 
@@ -77,45 +77,11 @@ pub(super) fn parse_data_uri(uri: &str) -> Option<Result<DataUri, String>> {
     })())
 }
 
-/// Makes `p` absolute (relative paths are taken from the current directory) and resolves `.`
-/// and `..` lexically, then through the file system where the path exists.
-fn absolute(p: &Path) -> PathBuf {
-    if let Ok(c) = p.canonicalize() {
-        return c;
-    }
-    let joined = if p.is_absolute() {
-        p.to_path_buf()
-    } else {
-        std::env::current_dir().map(|d| d.join(p)).unwrap_or_else(|_| p.to_path_buf())
-    };
-    // The file may not exist yet: canonicalize its directory and keep the name.
-    if let (Some(dir), Some(name)) = (joined.parent(), joined.file_name())
-        && let Ok(d) = dir.canonicalize()
-    {
-        return d.join(name);
-    }
-    joined
-}
-
-/// The URI of `target` relative to directory `from_dir`, percent-encoded, with `/` separators.
+/// The URI of `target` relative to directory `from_dir` (absolute when they share only the
+/// root), percent-encoded, with `/` separators.
 pub(super) fn relative_uri(from_dir: &Path, target: &Path) -> String {
-    let from = absolute(if from_dir.as_os_str().is_empty() { Path::new(".") } else { from_dir });
-    let to = absolute(target);
-    let fc: Vec<Component> = from.components().collect();
-    let tc: Vec<Component> = to.components().collect();
-    let common = fc.iter().zip(&tc).take_while(|(a, b)| a == b).count();
-    if common == 0 {
-        // Different roots (another drive): no relative form exists, fall back to the absolute path.
-        return percent_encode(&to.to_string_lossy().replace('\\', "/"));
-    }
-    let mut parts: Vec<String> = Vec::new();
-    for _ in common..fc.len() {
-        parts.push("..".to_string());
-    }
-    for c in &tc[common..] {
-        parts.push(c.as_os_str().to_string_lossy().into_owned());
-    }
-    percent_encode(&parts.join("/"))
+    let from = if from_dir.as_os_str().is_empty() { Path::new(".") } else { from_dir };
+    percent_encode(&crate::io::paths::texture_reference(target, from).replace('\\', "/"))
 }
 
 /// The MIME type glTF expects for an image file, from its extension.

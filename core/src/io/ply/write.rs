@@ -2,7 +2,7 @@
 //! binary little endian or ascii, through an atomic file.
 
 use std::io::Write;
-use std::path::{Component, Path, PathBuf};
+use std::path::{Path, PathBuf};
 
 use crate::atomic::AtomicFile;
 use crate::io::{IoError, WriteOptions};
@@ -53,7 +53,7 @@ fn texture_files(
     let mut names: Vec<String> = Vec::with_capacity(model.sheets.len());
     for (i, sheet) in model.sheets.iter().enumerate() {
         let name = match &sheet.image {
-            ImageSource::File(p) => relative_path(p, dir).to_string_lossy().into_owned(),
+            ImageSource::File(p) => crate::io::paths::texture_reference(p, dir),
             ImageSource::Embedded { name, mime, bytes } => {
                 let format =
                     ImageFormat::from_magic(bytes).or_else(|| ImageFormat::from_mime(mime));
@@ -94,56 +94,6 @@ fn sanitize(name: &str) -> String {
         .map(|c| if c.is_ascii_alphanumeric() || "-_.".contains(c) { c } else { '_' })
         .collect();
     s.trim_start_matches('.').to_string()
-}
-
-/// `target` written relative to `base` (a directory) when they share a directory below the root,
-/// with `..` steps as needed; otherwise `target` as an absolute path.
-fn relative_path(target: &Path, base: &Path) -> PathBuf {
-    let absolute = |p: &Path| -> PathBuf {
-        if let Ok(c) = p.canonicalize() {
-            return c;
-        }
-        // A path that does not exist (yet): resolve its directory, keep its name.
-        if let (Some(parent), Some(name)) = (p.parent(), p.file_name()) {
-            let parent = if parent.as_os_str().is_empty() { Path::new(".") } else { parent };
-            if let Ok(c) = parent.canonicalize() {
-                return c.join(name);
-            }
-        }
-        // Nothing exists to resolve: drop `.` and fold `..` lexically.
-        let abs = std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
-        let mut out = PathBuf::new();
-        for c in abs.components() {
-            match c {
-                Component::CurDir => {}
-                Component::ParentDir => {
-                    out.pop();
-                }
-                c => out.push(c.as_os_str()),
-            }
-        }
-        out
-    };
-    let (t, b) = (absolute(target), absolute(base));
-    let (tc, bc): (Vec<Component>, Vec<Component>) =
-        (t.components().collect(), b.components().collect());
-    if tc.first() != bc.first() {
-        return t;
-    }
-    let common = tc.iter().zip(&bc).take_while(|(a, b)| a == b).count();
-    // Sharing only the root, `../../..` chains would break as soon as the output moves; the
-    // absolute path is the more robust reference then.
-    if !tc[..common].iter().any(|c| matches!(c, Component::Normal(_))) {
-        return t;
-    }
-    let mut rel = PathBuf::new();
-    for _ in common..bc.len() {
-        rel.push("..");
-    }
-    for c in &tc[common..] {
-        rel.push(c.as_os_str());
-    }
-    rel
 }
 
 /// Per-vertex normals (each vertex takes the normal of its first corner that has one), or `None`
@@ -315,7 +265,9 @@ mod tests {
 
     #[test]
     fn relative_paths() {
-        let rel = |t: &str, b: &str| relative_path(Path::new(t), Path::new(b));
+        let rel = |t: &str, b: &str| {
+            PathBuf::from(crate::io::paths::texture_reference(Path::new(t), Path::new(b)))
+        };
         assert_eq!(rel("/nonexistent/b/c d.png", "/nonexistent/e"), Path::new("../b/c d.png"));
         assert_eq!(rel("/nonexistent/e/./c.png", "/nonexistent/e"), Path::new("c.png"));
         assert_eq!(rel("/nonexistent/x/../e/c.png", "/nonexistent/e/f"), Path::new("../c.png"));
