@@ -133,6 +133,9 @@ pub fn paint(
         stats.gutter += dilate(&mut store, &mut cov, gutter)?;
         // Let the kernel start writing the finished sheet back, so its dirty pages do not pile up.
         store.flush_async()?;
+        // Drop the finished sheet from the resident set: its pixels live on in the tile file and
+        // the page cache, so a run of many big sheets costs RSS of about one sheet, not all.
+        store.release_tile_rows(0, store.tiles_y());
         out.push(store);
     }
     Ok((out, stats))
