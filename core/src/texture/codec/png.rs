@@ -16,7 +16,7 @@ use crate::texture::store::TILE;
 use crate::texture::{PixelFormat, SampleType, TextureError, TileStore};
 
 /// Adam7 passes as (x offset, y offset, x step, y step).
-const ADAM7: [(u32, u32, u32, u32); 7] = [
+pub(super) const ADAM7: [(u32, u32, u32, u32); 7] = [
     (0, 0, 8, 8),
     (4, 0, 8, 8),
     (0, 4, 4, 8),

@@ -171,19 +171,8 @@ fn make_png(
         png_chunk(&mut out, k, d);
     }
     let mut raw = Vec::new();
-    let passes: Vec<(u32, u32, u32, u32)> = if interlaced {
-        vec![
-            (0, 0, 8, 8),
-            (4, 0, 8, 8),
-            (0, 4, 4, 8),
-            (2, 0, 4, 4),
-            (0, 2, 2, 4),
-            (1, 0, 2, 2),
-            (0, 1, 1, 2),
-        ]
-    } else {
-        vec![(0, 0, 1, 1)]
-    };
+    let passes: Vec<(u32, u32, u32, u32)> =
+        if interlaced { super::png::ADAM7.to_vec() } else { vec![(0, 0, 1, 1)] };
     for (x0, y0, dx, dy) in passes {
         let cols: Vec<u32> = (x0..w).step_by(dx as usize).collect();
         if cols.is_empty() {
