@@ -5,6 +5,7 @@
 
 pub mod energy;
 pub mod fit;
+pub mod grid;
 pub mod predicates;
 pub mod svd;
 
@@ -12,6 +13,7 @@ pub use energy::{
     EnergySum, Tri2, energy_weight, isometric_energy, jacobian, mean_isometric_energy, signed_area2,
 };
 pub use fit::{Rigid2, rigid_fit};
+pub use grid::GridTransform;
 pub use predicates::{
     orient2d, orientation, point_in_triangle_strict, segments_cross, triangles_overlap,
 };
