@@ -1,0 +1,455 @@
+//! One merge attempt (paper §4.2, digest §5): align the smaller chart, fuse each vertex group at
+//! its mean, free the optimization area, check the fixed parts for overlap, solve the local
+//! problem, then check energies, folds and overlaps (with a bounded freeze-and-rerun on new
+//! overlaps) and commit, or roll back from the undo logs.
+
+use std::time::Instant;
+
+use super::RejectReason;
+use super::grid::tri_bbox;
+use super::ops::{OpGeometry, dist};
+use super::patch::{find, union};
+use super::state::{Engine, NONE, orig_tri};
+use crate::geometry::{isometric_energy, signed_area2, triangles_overlap};
+use crate::plugin::LocalSolver;
+
+/// Twice the evaluator's degenerate-area threshold (1e-6 texel²): a triangle whose doubled area
+/// falls below this has become degenerate.
+const DEGENERATE_AREA2: f64 = 2e-6;
+
+#[inline]
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+/// What the checks found.
+enum Verdict {
+    Pass { out_num: f64, out_den: f64, in_num: f64 },
+    Reject(RejectReason),
+    /// New overlaps: `offenders` holds the faces involved.
+    Overlap,
+}
+
+impl Engine<'_> {
+    /// Attempts operation `op`. On success the layout and every cache are updated; on failure the
+    /// layout is exactly as before.
+    pub fn attempt(
+        &mut self,
+        op: u32,
+        solver: &mut dyn LocalSolver,
+    ) -> Result<OpGeometry, RejectReason> {
+        let t0 = Instant::now();
+        let g = self.op_geometry(op);
+        self.align_and_fuse(op, &g);
+        self.report.timings.align_fuse_ms += ms(t0);
+
+        let t1 = Instant::now();
+        self.optimization_area();
+        self.report.max_patch_faces = self.report.max_patch_faces.max(self.opt_faces.len() as u64);
+        self.report.timings.area_ms += ms(t1);
+
+        let result = self.check_and_solve(&g, solver);
+        match result {
+            Ok(v) => {
+                let t = Instant::now();
+                self.commit(&g, v);
+                self.report.timings.commit_ms += ms(t);
+            }
+            Err(_) => {
+                let t = Instant::now();
+                self.rollback();
+                self.report.timings.rollback_ms += ms(t);
+            }
+        }
+        self.reset_scratch();
+        result.map(|_| g)
+    }
+
+    /// Moves chart b by the fit, then fuses each group of paired vertices into its smallest
+    /// vertex at the group's mean and links the dissolved sides as UV twins. Leaves the seeds
+    /// (representative, α × largest displacement) in `self.seeds` and b's vertices in `moved`.
+    fn align_and_fuse(&mut self, op: u32, g: &OpGeometry) {
+        self.moved.clear();
+        if g.inter {
+            let ep = self.next_epoch();
+            for &f in &self.chart_faces[g.b.idx()] {
+                for k in 0..3 {
+                    let v = self.t.corner_uv[3 * f as usize + k].0;
+                    if self.vert_stamp[v as usize] != ep {
+                        self.vert_stamp[v as usize] = ep;
+                        self.moved.push(v);
+                    }
+                }
+            }
+            for &v in &self.moved {
+                let p = g.fit.apply(self.t.uv_pos[v as usize]);
+                self.log.pos.set(&mut self.t.uv_pos, v as usize, p);
+            }
+            // The moved faces enter the grid at their new place (see `grid` on stale entries).
+            for i in 0..self.chart_faces[g.b.idx()].len() {
+                let f = self.chart_faces[g.b.idx()][i];
+                let tri = self.tri(f as usize);
+                self.grid.insert(f, &tri);
+            }
+        }
+
+        // Groups: connected components of the pair graph, each fused into its smallest vertex.
+        self.local_verts.clear();
+        for &[p, q] in &self.pairs {
+            for v in [p.0, q.0] {
+                if self.vert_local[v as usize] == NONE {
+                    self.vert_local[v as usize] = self.local_verts.len() as u32;
+                    self.local_verts.push(v);
+                }
+            }
+        }
+        self.uf.clear();
+        self.uf.extend(0..self.local_verts.len() as u32);
+        for &[p, q] in &self.pairs {
+            let (lp, lq) = (self.vert_local[p.idx()], self.vert_local[q.idx()]);
+            union(&mut self.uf, lp, lq);
+        }
+        self.groups.clear();
+        for (i, &v) in self.local_verts.iter().enumerate() {
+            self.groups.push((find(&mut self.uf, i as u32), v));
+        }
+        for &v in &self.local_verts {
+            self.vert_local[v as usize] = NONE;
+        }
+        self.local_verts.clear();
+        // Sorting by (group, vertex) puts each group together with its smallest vertex first.
+        self.groups.sort_unstable();
+        self.seeds.clear();
+        let mut i = 0;
+        while i < self.groups.len() {
+            let mut j = i + 1;
+            while j < self.groups.len() && self.groups[j].0 == self.groups[i].0 {
+                j += 1;
+            }
+            let rep = self.groups[i].1;
+            let mut mean = [0.0, 0.0];
+            for &(_, v) in &self.groups[i..j] {
+                let p = self.t.uv_pos[v as usize];
+                mean = [mean[0] + p[0], mean[1] + p[1]];
+            }
+            let n = (j - i) as f64;
+            mean = [mean[0] / n, mean[1] / n];
+            let mut disp: f64 = 0.0;
+            for &(_, v) in &self.groups[i..j] {
+                disp = disp.max(dist(self.t.uv_pos[v as usize], mean));
+            }
+            self.log.pos.set(&mut self.t.uv_pos, rep as usize, mean);
+            for k in i + 1..j {
+                let m = self.groups[k].1;
+                self.fuse_vertex(m, rep);
+            }
+            let budget = self.opts.alpha * disp;
+            self.seeds.push((rep, if budget.is_finite() { budget } else { 0.0 }));
+            i = j;
+        }
+        for l in 0..self.ops[op as usize].links.len() {
+            let link = self.ops[op as usize].links[l];
+            let [h0, h1] = self.t.links[link.idx()].sides;
+            self.log.twin.set(&mut self.t.he_uv_twin, h0.idx(), h1);
+            self.log.twin.set(&mut self.t.he_uv_twin, h1.idx(), h0);
+        }
+    }
+
+    /// Moves every corner of vertex `m` to `rep` and appends `m`'s fan to `rep`'s.
+    fn fuse_vertex(&mut self, m: u32, rep: u32) {
+        let (m, rep) = (m as usize, rep as usize);
+        let mut c = self.fan_head[m];
+        if c == NONE {
+            return;
+        }
+        while c != NONE {
+            self.log.corner.set(&mut self.t.corner_uv, c as usize, crate::topology::UvVertId(rep as u32));
+            c = self.fan_next[c as usize];
+        }
+        let (head_m, tail_m) = (self.fan_head[m], self.fan_tail[m]);
+        let tail_rep = self.fan_tail[rep];
+        if tail_rep == NONE {
+            self.log.head.set(&mut self.fan_head, rep, head_m);
+        } else {
+            self.log.next.set(&mut self.fan_next, tail_rep as usize, head_m);
+        }
+        self.log.tail.set(&mut self.fan_tail, rep, tail_m);
+        self.log.head.set(&mut self.fan_head, m, NONE);
+        self.log.tail.set(&mut self.fan_tail, m, NONE);
+    }
+
+    /// Everything between the fusion and the verdict: the early overlap check, the local problem,
+    /// the solve with its freeze-and-rerun loop, and the checks.
+    fn check_and_solve(
+        &mut self,
+        g: &OpGeometry,
+        solver: &mut dyn LocalSolver,
+    ) -> Result<(f64, f64, f64), RejectReason> {
+        if g.inter {
+            let t = Instant::now();
+            let clash = self.fixed_parts_overlap(g);
+            self.report.timings.early_check_ms += ms(t);
+            if clash {
+                return Err(RejectReason::EarlyOverlap);
+            }
+        }
+        if self.opt_faces.is_empty() {
+            return Ok((0.0, 0.0, 0.0));
+        }
+        let t = Instant::now();
+        let ok = self.build_problem();
+        self.report.timings.build_problem_ms += ms(t);
+        if !ok {
+            return Err(RejectReason::Topology);
+        }
+        self.start_uv.clear();
+        self.start_uv.extend_from_slice(&self.problem.uv);
+        let mut rerun = 0;
+        loop {
+            let t = Instant::now();
+            let solved = solver.solve(&mut self.problem);
+            self.report.timings.solve_ms += ms(t);
+            let Ok(rep) = solved else {
+                return Err(RejectReason::Numerical);
+            };
+            self.report.solver_iterations += u64::from(rep.iterations);
+            if self.problem.uv.iter().flatten().any(|x| !x.is_finite()) {
+                return Err(RejectReason::Numerical);
+            }
+            for (i, &v) in self.local_verts.iter().enumerate() {
+                if !self.problem.fixed[i] {
+                    self.log.pos.set(&mut self.t.uv_pos, v as usize, self.problem.uv[i]);
+                }
+            }
+            let t = Instant::now();
+            let verdict = self.verdict(g);
+            self.report.timings.checks_ms += ms(t);
+            match verdict {
+                Verdict::Pass { out_num, out_den, in_num } => return Ok((out_num, out_den, in_num)),
+                Verdict::Reject(r) => return Err(r),
+                Verdict::Overlap => {
+                    if rerun >= self.opts.max_freeze_retries || !self.freeze_offenders() {
+                        return Err(RejectReason::Overlap);
+                    }
+                    rerun += 1;
+                    self.report.freeze_reruns += 1;
+                    // Rerun from the fused layout with the offending vertices held there.
+                    for (i, &v) in self.local_verts.iter().enumerate() {
+                        self.problem.uv[i] = self.start_uv[i];
+                        self.problem.fixed[i] = self.base_fixed[i] || self.vert_frozen[v as usize];
+                        self.log.pos.set(&mut self.t.uv_pos, v as usize, self.start_uv[i]);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The early check: do the fixed (non-optimized) faces of the moved chart b overlap the fixed
+    /// faces of chart a? Both keep their shapes whatever the solver does.
+    fn fixed_parts_overlap(&mut self, g: &OpGeometry) -> bool {
+        let b = g.b.idx();
+        for i in 0..self.chart_faces[b].len() {
+            let f = self.chart_faces[b][i] as usize;
+            if self.face_opt[f] {
+                continue;
+            }
+            let tri = self.tri(f);
+            self.candidates.clear();
+            self.grid.query(tri_bbox(&tri), &mut self.candidates);
+            for j in 0..self.candidates.len() {
+                let s = self.candidates[j] as usize;
+                if self.t.face_chart[s] != g.a || self.face_opt[s] {
+                    continue;
+                }
+                if triangles_overlap(tri, self.tri(s)) {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
+    /// The checks after a solve, cheapest first: atlas-wide energy budget, local energy, folds,
+    /// then overlaps between optimized faces and the whole merged chart.
+    fn verdict(&mut self, g: &OpGeometry) -> Verdict {
+        let (mut out_num, mut out_den, mut in_num) = (0.0, 0.0, 0.0);
+        for &f in &self.opt_faces {
+            let f = f as usize;
+            let w = self.face_weight[f];
+            out_num += w * isometric_energy(orig_tri(self.t, f), self.tri(f));
+            out_den += w;
+            in_num += self.face_energy[f];
+        }
+        let global = (self.energy_num + out_num - in_num) / self.energy_den.max(f64::MIN_POSITIVE);
+        if !(global <= self.opts.global_distortion) {
+            return Verdict::Reject(RejectReason::GlobalDistortion);
+        }
+        let local = if out_den > 0.0 { out_num / out_den } else { 0.0 };
+        if !(local <= self.opts.local_distortion) {
+            return Verdict::Reject(RejectReason::LocalDistortion);
+        }
+        for &f in &self.opt_faces {
+            let before = self.face_area2[f as usize];
+            let after = signed_area2(self.tri(f as usize));
+            if before >= DEGENERATE_AREA2 && !(after >= DEGENERATE_AREA2) {
+                return Verdict::Reject(RejectReason::Fold);
+            }
+        }
+        // Optimized faces enter the grid at their new place before the overlap queries.
+        for i in 0..self.opt_faces.len() {
+            let f = self.opt_faces[i];
+            let tri = self.tri(f as usize);
+            self.grid.insert(f, &tri);
+        }
+        self.offenders.clear();
+        for i in 0..self.opt_faces.len() {
+            let f = self.opt_faces[i] as usize;
+            let tri = self.tri(f);
+            self.candidates.clear();
+            self.grid.query(tri_bbox(&tri), &mut self.candidates);
+            for j in 0..self.candidates.len() {
+                let s = self.candidates[j] as usize;
+                let cs = self.t.face_chart[s];
+                if s == f || (cs != g.a && cs != g.b) || (self.face_opt[s] && s < f) {
+                    continue;
+                }
+                if !triangles_overlap(tri, self.tri(s)) {
+                    continue;
+                }
+                // Overlaps already present in the input chart are tolerated, never new ones.
+                let same_chart = cs == self.t.face_chart[f];
+                if same_chart && triangles_overlap(self.tri_before(f), self.tri_before(s)) {
+                    continue;
+                }
+                self.offenders.push(f as u32);
+                self.offenders.push(s as u32);
+            }
+        }
+        if self.offenders.is_empty() {
+            Verdict::Pass { out_num, out_den, in_num }
+        } else {
+            Verdict::Overlap
+        }
+    }
+
+    /// Freezes the free vertices of the offending faces; `false` when none was left to freeze.
+    fn freeze_offenders(&mut self) -> bool {
+        let mut grew = false;
+        for i in 0..self.offenders.len() {
+            let f = self.offenders[i] as usize;
+            for k in 0..3 {
+                let v = self.t.corner_uv[3 * f + k].0;
+                if self.is_free(v) && !self.vert_frozen[v as usize] {
+                    self.vert_frozen[v as usize] = true;
+                    self.frozen_list.push(v);
+                    grew = true;
+                }
+            }
+        }
+        grew
+    }
+
+    /// Keeps the attempt: face caches, chart caches and lists, atlas sums, logs.
+    fn commit(&mut self, g: &OpGeometry, (out_num, out_den, in_num): (f64, f64, f64)) {
+        let _ = out_den;
+        let mut d_area2 = 0.0;
+        let mut d_perimeter = 0.0;
+        for i in 0..self.opt_faces.len() {
+            let f = self.opt_faces[i] as usize;
+            let (before, after) = (self.tri_before(f), self.tri(f));
+            for k in 0..3 {
+                let h = 3 * f + k;
+                if self.log.twin.before(&self.t.he_uv_twin, h).is_none() {
+                    d_perimeter -= dist(before[k], before[(k + 1) % 3]);
+                }
+                if self.t.he_uv_twin[h].is_none() {
+                    d_perimeter += dist(after[k], after[(k + 1) % 3]);
+                }
+            }
+            let a2 = signed_area2(after);
+            d_area2 += a2 - self.face_area2[f];
+            self.face_area2[f] = a2;
+            self.face_energy[f] = self.face_weight[f] * isometric_energy(orig_tri(self.t, f), after);
+            self.face_optimized[f] = true;
+        }
+        // Dissolved sides outside every optimized face (only when nothing was freed: all the
+        // pairs were fused already) stop being border too.
+        if self.opt_faces.is_empty() {
+            for h in self.log.twin.slots().collect::<Vec<_>>() {
+                let before = self.tri_before(h as usize / 3);
+                let k = h as usize % 3;
+                d_perimeter -= dist(before[k], before[(k + 1) % 3]);
+            }
+        }
+        self.energy_num += out_num - in_num;
+        self.border_len += d_perimeter;
+        let local = if out_den > 0.0 { out_num / out_den } else { 0.0 };
+        self.report.max_accepted_local_energy = self.report.max_accepted_local_energy.max(local);
+        self.report.optimized_faces += self.opt_faces.len() as u64;
+
+        let (a, b) = (g.a.idx(), g.b.idx());
+        if g.inter {
+            let faces = std::mem::take(&mut self.chart_faces[b]);
+            for &f in &faces {
+                self.t.face_chart[f as usize] = g.a;
+            }
+            self.chart_faces[a].extend_from_slice(&faces);
+            for &v in &self.moved {
+                self.t.uv_chart[v as usize] = g.a;
+            }
+            let cb = self.t.charts[b].clone();
+            let ca = &mut self.t.charts[a];
+            ca.n_faces += cb.n_faces;
+            ca.area_signed += cb.area_signed;
+            ca.area_3d += cb.area_3d;
+            ca.perimeter_uv += cb.perimeter_uv;
+            self.t.charts[b].n_faces = 0;
+        }
+        let ca = &mut self.t.charts[a];
+        ca.area_signed += 0.5 * d_area2;
+        ca.area_uv = ca.area_signed.abs();
+        ca.perimeter_uv += d_perimeter;
+        // The bbox only grows: it bounds the moved chart and every re-optimized vertex.
+        let mut bbox = ca.bbox;
+        for &v in self.moved.iter().chain(&self.free) {
+            let p = self.t.uv_pos[v as usize];
+            bbox = [bbox[0].min(p[0]), bbox[1].min(p[1]), bbox[2].max(p[0]), bbox[3].max(p[1])];
+        }
+        self.t.charts[a].bbox = bbox;
+        self.log.pos.commit();
+        self.log.corner.commit();
+        self.log.twin.commit();
+        self.log.head.commit();
+        self.log.tail.commit();
+        self.log.next.commit();
+    }
+
+    /// Puts the layout back as it was before the attempt.
+    fn rollback(&mut self) {
+        self.log.pos.restore(&mut self.t.uv_pos);
+        self.log.corner.restore(&mut self.t.corner_uv);
+        self.log.twin.restore(&mut self.t.he_uv_twin);
+        self.log.head.restore(&mut self.fan_head);
+        self.log.tail.restore(&mut self.fan_tail);
+        self.log.next.restore(&mut self.fan_next);
+    }
+
+    /// Clears the per-attempt marks.
+    fn reset_scratch(&mut self) {
+        for &v in &self.free {
+            self.vert_budget[v as usize] = f64::NAN;
+        }
+        for &f in &self.opt_faces {
+            self.face_opt[f as usize] = false;
+        }
+        for &v in &self.local_verts {
+            self.vert_local[v as usize] = NONE;
+        }
+        for &v in &self.frozen_list {
+            self.vert_frozen[v as usize] = false;
+        }
+        self.frozen_list.clear();
+        self.local_verts.clear();
+        self.maybe_compact_grid();
+    }
+}

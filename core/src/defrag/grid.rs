@@ -1,0 +1,159 @@
+//! A uniform spatial grid of faces in texel space, for the overlap checks of merge attempts.
+//!
+//! Entries are only ever added: a face is inserted again wherever it moves, and stale entries
+//! (a face that has since moved away, or whose move was rolled back) are harmless because every
+//! candidate is tested against its current triangle. A rolled-back attempt therefore needs no
+//! grid undo at all. When stale entries pile up the grid is rebuilt from the current layout.
+
+use crate::geometry::Tri2;
+
+/// Faces bucketed by the grid cells their bounding boxes touch.
+#[derive(Debug)]
+pub(crate) struct FaceGrid {
+    origin: [f64; 2],
+    inv_cell: f64,
+    nx: u32,
+    ny: u32,
+    cells: Vec<Vec<u32>>,
+    entries: usize,
+    /// Per face: the query that last returned it, to report each face once per query.
+    stamp: Vec<u32>,
+    epoch: u32,
+}
+
+/// The bounding box `[min x, min y, max x, max y]` of a triangle.
+#[inline]
+pub(crate) fn tri_bbox(t: &Tri2) -> [f64; 4] {
+    [
+        t[0][0].min(t[1][0]).min(t[2][0]),
+        t[0][1].min(t[1][1]).min(t[2][1]),
+        t[0][0].max(t[1][0]).max(t[2][0]),
+        t[0][1].max(t[1][1]).max(t[2][1]),
+    ]
+}
+
+impl FaceGrid {
+    /// An empty grid covering `extent` (`[min x, min y, max x, max y]`) with square cells of side
+    /// `cell`, for faces `0..n_faces`. Points outside the extent fall into the border cells, which
+    /// is slower but still correct.
+    pub fn new(extent: [f64; 4], cell: f64, n_faces: usize) -> Self {
+        let cell = if cell.is_finite() && cell > 0.0 { cell } else { 1.0 };
+        let span = |lo: f64, hi: f64| {
+            let n = ((hi - lo) / cell).ceil();
+            if n.is_finite() && n >= 1.0 { (n as u32).min(4096) } else { 1 }
+        };
+        let (nx, ny) = (span(extent[0], extent[2]), span(extent[1], extent[3]));
+        let origin = if extent[0].is_finite() && extent[1].is_finite() {
+            [extent[0], extent[1]]
+        } else {
+            [0.0, 0.0]
+        };
+        // The cell side grows when the extent needs more than 4096 cells per axis.
+        let cell = cell
+            .max((extent[2] - extent[0]) / f64::from(nx))
+            .max((extent[3] - extent[1]) / f64::from(ny));
+        let cell = if cell.is_finite() && cell > 0.0 { cell } else { 1.0 };
+        Self {
+            origin,
+            inv_cell: 1.0 / cell,
+            nx,
+            ny,
+            cells: vec![Vec::new(); (nx as usize) * (ny as usize)],
+            entries: 0,
+            stamp: vec![0; n_faces],
+            epoch: 0,
+        }
+    }
+
+    #[inline]
+    fn axis(&self, x: f64, origin: f64, n: u32) -> u32 {
+        let c = ((x - origin) * self.inv_cell).floor();
+        if c.is_nan() || c < 0.0 {
+            0
+        } else if c >= f64::from(n - 1) {
+            n - 1
+        } else {
+            c as u32
+        }
+    }
+
+    #[inline]
+    fn range(&self, b: [f64; 4]) -> (u32, u32, u32, u32) {
+        (
+            self.axis(b[0], self.origin[0], self.nx),
+            self.axis(b[1], self.origin[1], self.ny),
+            self.axis(b[2], self.origin[0], self.nx),
+            self.axis(b[3], self.origin[1], self.ny),
+        )
+    }
+
+    /// Adds face `f` with triangle `t` to every cell its bounding box touches.
+    pub fn insert(&mut self, f: u32, t: &Tri2) {
+        let (x0, y0, x1, y1) = self.range(tri_bbox(t));
+        for y in y0..=y1 {
+            let row = (y as usize) * (self.nx as usize);
+            for x in x0..=x1 {
+                self.cells[row + x as usize].push(f);
+            }
+        }
+        self.entries += ((x1 - x0 + 1) * (y1 - y0 + 1)) as usize;
+    }
+
+    /// Appends to `out` every face with an entry in a cell that `bbox` touches, each once.
+    pub fn query(&mut self, bbox: [f64; 4], out: &mut Vec<u32>) {
+        self.epoch = self.epoch.wrapping_add(1);
+        if self.epoch == 0 {
+            self.stamp.iter_mut().for_each(|s| *s = 0);
+            self.epoch = 1;
+        }
+        let (x0, y0, x1, y1) = self.range(bbox);
+        for y in y0..=y1 {
+            let row = (y as usize) * (self.nx as usize);
+            for x in x0..=x1 {
+                for &f in &self.cells[row + x as usize] {
+                    let s = &mut self.stamp[f as usize];
+                    if *s != self.epoch {
+                        *s = self.epoch;
+                        out.push(f);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The number of entries (live and stale).
+    pub fn entries(&self) -> usize {
+        self.entries
+    }
+
+    /// Drops every entry, keeping the cells' capacity.
+    pub fn clear(&mut self) {
+        self.cells.iter_mut().for_each(Vec::clear);
+        self.entries = 0;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn query_finds_inserted_faces_once_and_clamps_outliers() {
+        let mut g = FaceGrid::new([0.0, 0.0, 100.0, 100.0], 10.0, 4);
+        g.insert(0, &[[1.0, 1.0], [25.0, 1.0], [1.0, 25.0]]);
+        g.insert(1, &[[80.0, 80.0], [90.0, 80.0], [80.0, 90.0]]);
+        g.insert(2, &[[-500.0, -500.0], [-490.0, -500.0], [-500.0, -490.0]]);
+        let mut out = Vec::new();
+        g.query([0.0, 0.0, 30.0, 30.0], &mut out);
+        out.sort_unstable();
+        assert_eq!(out, [0, 2]);
+        out.clear();
+        g.query([85.0, 85.0, 1e9, 1e9], &mut out);
+        assert_eq!(out, [1]);
+        assert!(g.entries() >= 3);
+        g.clear();
+        out.clear();
+        g.query([-1e9, -1e9, 1e9, 1e9], &mut out);
+        assert!(out.is_empty());
+    }
+}

@@ -1,0 +1,265 @@
+//! The defragmentation engine (paper §4.2–4.4, ARCHITECTURE §6): the greedy merge queue and the
+//! merge operation (align, fuse, optimization area, local problem, solve, checks, commit or roll
+//! back), working in place on a prepared [`Topology`].
+//!
+//! Layout of the module:
+//! - `undo`: first-old-value logs, so a rejected merge is rolled back in O(patch) and the state
+//!   before the merge can be read back during the checks;
+//! - `grid`: a spatial grid of faces for the overlap checks;
+//! - `state`: the mutable engine state (UV vertex fans, per-face and per-chart caches);
+//! - `ops`: the dynamic operation table, the operation geometry (vertex pairs, rigid fit) and
+//!   the scorer features;
+//! - `patch`: the optimization area, the local problem and its topology check;
+//! - `attempt`: one merge attempt with its checks, commit and rollback;
+//! - `greedy`: the priority queue and the rescoring after each accepted merge.
+
+mod attempt;
+mod grid;
+mod greedy;
+mod ops;
+mod output;
+mod patch;
+mod state;
+mod undo;
+
+#[cfg(test)]
+mod tests;
+
+pub use greedy::merge_charts;
+pub use output::merged_model;
+pub use state::MergedLayout;
+
+use crate::plugin::Veto;
+
+/// The parameters of the merge stage, with the paper's defaults (§5, digest §4.5).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct MergeOptions {
+    /// d: the largest area-weighted mean isometric energy allowed in an optimization area.
+    pub local_distortion: f64,
+    /// g: the largest area-weighted mean isometric energy of the whole atlas (a budget for the
+    /// whole run).
+    pub global_distortion: f64,
+    /// α: a fused vertex displaced by δ frees every vertex within α·δ of it along UV edges.
+    pub alpha: f64,
+    /// Stop once the total UV border length falls below this fraction of the input's (0: never).
+    pub uv_border_target: f64,
+    /// Stop after this many seconds of merging (0: no limit). The only option that may make the
+    /// output depend on timing.
+    pub time_limit: f64,
+    /// Never attempt an operation again after it failed (the paper's NoRetry ablation).
+    pub no_retry: bool,
+    /// How many times the solve is rerun with the vertices of new overlaps frozen (digest §5.8).
+    pub max_freeze_retries: u32,
+}
+
+impl Default for MergeOptions {
+    fn default() -> Self {
+        Self {
+            local_distortion: 0.5,
+            global_distortion: 0.025,
+            alpha: 5.0,
+            uv_border_target: 0.0,
+            time_limit: 0.0,
+            no_retry: false,
+            max_freeze_retries: 10,
+        }
+    }
+}
+
+impl MergeOptions {
+    /// Checks the values, naming the first bad one.
+    pub fn validate(&self) -> Result<(), DefragError> {
+        let bad = |name: &'static str, msg: &'static str| Err(DefragError::BadOption { name, msg });
+        let ok = |x: f64| x.is_finite() && x >= 0.0;
+        if !ok(self.local_distortion) {
+            return bad("local-distortion", "expected a finite number ≥ 0");
+        }
+        if !ok(self.global_distortion) {
+            return bad("global-distortion", "expected a finite number ≥ 0");
+        }
+        if !ok(self.alpha) {
+            return bad("alpha", "expected a finite number ≥ 0");
+        }
+        if !(ok(self.uv_border_target) && self.uv_border_target <= 1.0) {
+            return bad("uv-border-target", "expected a number in [0, 1]");
+        }
+        if !ok(self.time_limit) {
+            return bad("time-limit", "expected a finite number of seconds ≥ 0");
+        }
+        Ok(())
+    }
+}
+
+/// Errors of the merge stage. Data problems never end up here: a merge that cannot be done is
+/// rejected with a [`RejectReason`] and rolled back.
+#[derive(Debug, thiserror::Error)]
+pub enum DefragError {
+    #[error("option --{name}: {msg}")]
+    BadOption { name: &'static str, msg: &'static str },
+}
+
+/// Why a merge attempt was rolled back.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RejectReason {
+    /// The fixed parts of the two aligned charts overlap (detected before the solve).
+    EarlyOverlap,
+    /// The optimization area is not a disk-like patch (closed, with handles, or non-manifold).
+    Topology,
+    /// The local solver failed (non-finite values, singular system).
+    Numerical,
+    /// The optimization area's energy exceeds the local threshold d.
+    LocalDistortion,
+    /// The atlas-wide energy would exceed the budget g.
+    GlobalDistortion,
+    /// A triangle of the optimization area became folded or degenerate.
+    Fold,
+    /// Two triangles of the merged chart overlap that did not overlap before.
+    Overlap,
+}
+
+impl RejectReason {
+    /// Every reason, in report order.
+    pub const ALL: [Self; 7] = [
+        Self::EarlyOverlap,
+        Self::Topology,
+        Self::Numerical,
+        Self::LocalDistortion,
+        Self::GlobalDistortion,
+        Self::Fold,
+        Self::Overlap,
+    ];
+
+    /// The kebab-case name used in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::EarlyOverlap => "early-overlap",
+            Self::Topology => "topology",
+            Self::Numerical => "numerical",
+            Self::LocalDistortion => "local-distortion",
+            Self::GlobalDistortion => "global-distortion",
+            Self::Fold => "fold",
+            Self::Overlap => "overlap",
+        }
+    }
+}
+
+/// A count per rejection reason, in [`RejectReason::ALL`] order.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct RejectCounts {
+    pub early_overlap: u64,
+    pub topology: u64,
+    pub numerical: u64,
+    pub local_distortion: u64,
+    pub global_distortion: u64,
+    pub fold: u64,
+    pub overlap: u64,
+}
+
+impl RejectCounts {
+    pub(crate) fn add(&mut self, r: RejectReason) {
+        *match r {
+            RejectReason::EarlyOverlap => &mut self.early_overlap,
+            RejectReason::Topology => &mut self.topology,
+            RejectReason::Numerical => &mut self.numerical,
+            RejectReason::LocalDistortion => &mut self.local_distortion,
+            RejectReason::GlobalDistortion => &mut self.global_distortion,
+            RejectReason::Fold => &mut self.fold,
+            RejectReason::Overlap => &mut self.overlap,
+        } += 1;
+    }
+
+    /// The total over all reasons.
+    pub fn total(&self) -> u64 {
+        self.early_overlap
+            + self.topology
+            + self.numerical
+            + self.local_distortion
+            + self.global_distortion
+            + self.fold
+            + self.overlap
+    }
+}
+
+/// Scorer vetoes seen while ranking operations, by kind.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct VetoCounts {
+    pub zero_area: u64,
+    pub matching: u64,
+    pub boundary: u64,
+}
+
+impl VetoCounts {
+    pub(crate) fn add(&mut self, v: Veto) {
+        *match v {
+            Veto::ZeroArea => &mut self.zero_area,
+            Veto::Matching => &mut self.matching,
+            Veto::Boundary => &mut self.boundary,
+        } += 1;
+    }
+}
+
+/// Milliseconds spent per step of the merge stage.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct MergeTimings {
+    pub init_ms: f64,
+    pub scoring_ms: f64,
+    pub align_fuse_ms: f64,
+    pub area_ms: f64,
+    pub early_check_ms: f64,
+    pub build_problem_ms: f64,
+    pub solve_ms: f64,
+    pub checks_ms: f64,
+    pub commit_ms: f64,
+    pub rollback_ms: f64,
+    pub total_ms: f64,
+}
+
+/// Why the greedy loop ended.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StopReason {
+    /// No operation was left to attempt.
+    #[default]
+    QueueEmpty,
+    /// `--time-limit` was reached.
+    TimeLimit,
+    /// The UV border fell below `--uv-border-target` of the input's.
+    BorderTarget,
+}
+
+/// What the merge stage did, for the run report.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct MergeReport {
+    pub charts_before: u64,
+    pub charts_after: u64,
+    /// Mergeable (non-frozen) charts before and after.
+    pub mergeable_charts_before: u64,
+    pub mergeable_charts_after: u64,
+    /// Charts mirrored at the start so that every chart has positive orientation.
+    pub mirrored_charts: u64,
+    pub ops_initial: u64,
+    pub attempted: u64,
+    pub accepted: u64,
+    /// Accepted operations that had failed before (successes of a retry).
+    pub accepted_after_failure: u64,
+    pub rejected: RejectCounts,
+    pub vetoes: VetoCounts,
+    /// Solves rerun with the vertices of overlapping triangles frozen.
+    pub freeze_reruns: u64,
+    /// Area-weighted mean isometric energy of the whole atlas against the input UVs.
+    pub energy_before: f64,
+    pub energy_after: f64,
+    /// The largest local (optimization-area) energy of an accepted merge.
+    pub max_accepted_local_energy: f64,
+    pub solver_iterations: u64,
+    /// Total UV border length (texels) before and after.
+    pub uv_border_before: f64,
+    pub uv_border_after: f64,
+    /// Faces in the optimization areas of accepted merges (counted once per merge).
+    pub optimized_faces: u64,
+    /// The largest optimization area attempted, in faces.
+    pub max_patch_faces: u64,
+    pub stop: StopReason,
+    pub timings: MergeTimings,
+}

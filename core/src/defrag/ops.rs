@@ -1,0 +1,246 @@
+//! The dynamic operation table of the greedy loop and the geometry of an operation in the current
+//! layout: which chart stays and which moves, the vertex pairs to fuse, the rigid alignment, the
+//! seam lengths on each side, and the features a `MergeScorer` ranks (paper §4.3, digest §4.2).
+
+use super::RejectReason;
+use super::state::Engine;
+use crate::geometry::{Rigid2, rigid_fit};
+use crate::plugin::{OpFeatures, Veto};
+use crate::topology::charts::pair_corners;
+use crate::topology::{ChartId, LinkId, OpKind};
+
+/// Where an operation stands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum OpState {
+    /// In the queue with its current appeal.
+    Queued,
+    /// Refused by the scorer; rescored when one of its charts changes.
+    Vetoed(Veto),
+    /// Attempted and rolled back; back in the queue only after one of its charts changes.
+    Failed(RejectReason),
+    /// Accepted.
+    Done,
+    /// Replaced by an operation that joins its links with those of another (shared neighbour).
+    Dead,
+}
+
+/// An operation of the greedy loop: the linked pairs it dissolves, all at once.
+#[derive(Clone, Debug)]
+pub(crate) struct EngineOp {
+    pub kind: OpKind,
+    pub links: Vec<LinkId>,
+    pub state: OpState,
+    /// How many times it was attempted and rolled back (the back-off exponent k).
+    pub failures: u32,
+    /// Bumped on every rescore; queue entries of older versions are stale.
+    pub version: u32,
+}
+
+impl EngineOp {
+    pub fn is_live(&self) -> bool {
+        !matches!(self.state, OpState::Done | OpState::Dead)
+    }
+}
+
+/// The operation geometry in the current layout. The pairs are left in `Engine::pairs`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct OpGeometry {
+    /// The chart that stays (more faces) and the chart that moves (equal for intra-chart).
+    pub a: ChartId,
+    pub b: ChartId,
+    pub inter: bool,
+    /// Maps chart b onto chart a (identity for intra-chart operations).
+    pub fit: Rigid2,
+    /// Mean distance of the fused pairs after the fit.
+    pub error: f64,
+    /// UV length of the dissolved edges on each side (both sides in `len_a` and `len_b` for an
+    /// intra-chart operation, as the reference does).
+    pub len_a: f64,
+    pub len_b: f64,
+}
+
+#[inline]
+pub(crate) fn dist(p: [f64; 2], q: [f64; 2]) -> f64 {
+    (p[0] - q[0]).hypot(p[1] - q[1])
+}
+
+impl Engine<'_> {
+    /// The current charts of an operation's sides (from its first linked pair: charts only ever
+    /// merge whole, so every pair of an operation separates the same two charts).
+    pub fn op_charts(&self, op: u32) -> (ChartId, ChartId) {
+        let l = self.ops[op as usize].links[0];
+        let [h0, h1] = self.t.links[l.idx()].sides;
+        (self.t.face_chart[h0.face()], self.t.face_chart[h1.face()])
+    }
+
+    /// Computes the geometry of `op`, leaving its distinct vertex pairs `(stays, moves)` in
+    /// `self.pairs` (pairs whose two vertices are already one are left out).
+    pub fn op_geometry(&mut self, op: u32) -> OpGeometry {
+        let (c0, c1) = self.op_charts(op);
+        let inter = c0 != c1;
+        let (a, b) = if !inter {
+            (c0, c0)
+        } else {
+            let (n0, n1) = (self.t.charts[c0.idx()].n_faces, self.t.charts[c1.idx()].n_faces);
+            if n0 > n1 || (n0 == n1 && c0 < c1) { (c0, c1) } else { (c1, c0) }
+        };
+        self.pairs.clear();
+        let (mut len_a, mut len_b) = (0.0, 0.0);
+        let t = &*self.t;
+        for &l in &self.ops[op as usize].links {
+            let [h0, h1] = t.links[l.idx()].sides;
+            let (ha, hb) = if inter && t.face_chart[h0.face()] != a { (h1, h0) } else { (h0, h1) };
+            let [[a0, b0], [a1, b1]] = pair_corners(&t.corner_pos, ha, hb);
+            let (va0, vb0, va1, vb1) =
+                (t.corner_uv[a0], t.corner_uv[b0], t.corner_uv[a1], t.corner_uv[b1]);
+            let la = dist(t.uv_pos[va0.idx()], t.uv_pos[va1.idx()]);
+            let lb = dist(t.uv_pos[vb0.idx()], t.uv_pos[vb1.idx()]);
+            if inter {
+                len_a += la;
+                len_b += lb;
+            } else {
+                len_a += la + lb;
+            }
+            if va0 != vb0 {
+                self.pairs.push([va0, vb0]);
+            }
+            if va1 != vb1 {
+                self.pairs.push([va1, vb1]);
+            }
+        }
+        if !inter {
+            len_b = len_a;
+        }
+        self.pairs.sort_unstable();
+        self.pairs.dedup();
+        self.pts.clear();
+        self.pts.extend(
+            self.pairs.iter().map(|&[p, q]| (self.t.uv_pos[p.idx()], self.t.uv_pos[q.idx()])),
+        );
+        let fit = if inter { rigid_fit(&self.pts) } else { Rigid2::IDENTITY };
+        let error = fit.mean_residual(&self.pts);
+        OpGeometry { a, b, inter, fit, error, len_a, len_b }
+    }
+
+    /// The distinct live neighbours of chart `c` through inter-chart operations, appended to `out`
+    /// in discovery order; stops and returns `false` once more than `limit` are found.
+    fn neighbours_within(&self, c: ChartId, limit: usize, out: &mut Vec<ChartId>) -> bool {
+        let start = out.len();
+        for &op in &self.chart_ops[c.idx()] {
+            let o = &self.ops[op as usize];
+            if !o.is_live() || o.kind != OpKind::Inter {
+                continue;
+            }
+            let (x, y) = self.op_charts(op);
+            if x == y {
+                continue;
+            }
+            let n = if x == c { y } else { x };
+            if !out[start..].contains(&n) {
+                out.push(n);
+                if out.len() - start > limit {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
+    /// The small-island look-ahead of the reference (digest §4.4): true when a and b have at most
+    /// five neighbours each and, for some neighbour c, the charts reachable from a without
+    /// crossing c are at most five (a sits in a small island that only c encloses).
+    fn island_lookahead(&self, a: ChartId, b: ChartId) -> bool {
+        const STEPS: usize = 5;
+        let mut around = Vec::with_capacity(2 * STEPS + 2);
+        if !self.neighbours_within(a, STEPS, &mut around) {
+            return false;
+        }
+        let mut nb = Vec::with_capacity(STEPS + 1);
+        if !self.neighbours_within(b, STEPS, &mut nb) {
+            return false;
+        }
+        for n in nb {
+            if !around.contains(&n) {
+                around.push(n);
+            }
+        }
+        let mut visited = Vec::with_capacity(STEPS + 3);
+        let mut stack = Vec::with_capacity(STEPS + 2);
+        let mut nbrs = Vec::with_capacity(STEPS + 2);
+        'cut: for &c in &around {
+            visited.clear();
+            visited.extend([a, c]);
+            stack.clear();
+            stack.push(a);
+            let mut pushes = 0;
+            while let Some(x) = stack.pop() {
+                nbrs.clear();
+                // A chart with more neighbours than the step budget ends this cut at once.
+                if !self.neighbours_within(x, STEPS + 1, &mut nbrs) {
+                    continue 'cut;
+                }
+                for &y in &nbrs {
+                    if !visited.contains(&y) {
+                        visited.push(y);
+                        stack.push(y);
+                        pushes += 1;
+                        if pushes > STEPS {
+                            continue 'cut;
+                        }
+                    }
+                }
+            }
+            return true;
+        }
+        false
+    }
+
+    /// The scorer's view of `op` in the current layout.
+    pub fn features(&mut self, op: u32) -> OpFeatures {
+        let g = self.op_geometry(op);
+        let (ca, cb) = (&self.t.charts[g.a.idx()], &self.t.charts[g.b.idx()]);
+        let o = &self.ops[op as usize];
+        OpFeatures {
+            op_id: op,
+            inter_chart: g.inter,
+            uv_area_a: ca.area_uv,
+            uv_area_b: cb.area_uv,
+            area_3d_a: ca.area_3d,
+            area_3d_b: cb.area_3d,
+            perimeter_a: ca.perimeter_uv,
+            perimeter_b: cb.perimeter_uv,
+            seam_length_a: g.len_a,
+            seam_length_b: g.len_b,
+            mean_match_error: g.error,
+            pairs: self.pairs.len() as u32,
+            seam_edges: o.links.len() as u32,
+            failures: o.failures,
+            island_lookahead: g.inter && self.island_lookahead(g.a, g.b),
+        }
+    }
+}
+
+/// The initial operation table: one engine operation per prepared operation, in id order.
+pub(crate) fn initial_ops(t: &crate::topology::Topology) -> (Vec<EngineOp>, Vec<Vec<u32>>) {
+    let mut ops = Vec::with_capacity(t.ops.len());
+    let mut chart_ops = vec![Vec::new(); t.charts.len()];
+    for (i, o) in t.ops.iter().enumerate() {
+        let links: Vec<LinkId> = t.links_of_op(crate::topology::OpId::from_usize(i)).to_vec();
+        if links.is_empty() {
+            continue;
+        }
+        let id = ops.len() as u32;
+        chart_ops[o.charts[0].idx()].push(id);
+        if o.charts[1] != o.charts[0] {
+            chart_ops[o.charts[1].idx()].push(id);
+        }
+        ops.push(EngineOp {
+            kind: o.kind,
+            links,
+            state: OpState::Vetoed(Veto::ZeroArea),
+            failures: 0,
+            version: 0,
+        });
+    }
+    (ops, chart_ops)
+}

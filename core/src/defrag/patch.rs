@@ -1,0 +1,244 @@
+//! The optimization area of a merge (every vertex within α × its seed's displacement along UV
+//! edges, digest §5.3), the local problem built from it (free vertices, fixed ring, ORIGINAL UV
+//! triangles as targets, digest §5.5) and its topology check (each connected part must be a
+//! disk-like surface: genus 0 with at least one boundary loop, no edge with three triangles).
+
+use super::ops::dist;
+use super::state::{Engine, NONE, OrdF64, orig_tri};
+
+/// Union-find root with path halving.
+#[inline]
+pub(crate) fn find(parent: &mut [u32], mut x: u32) -> u32 {
+    while parent[x as usize] != x {
+        let p = parent[parent[x as usize] as usize];
+        parent[x as usize] = p;
+        x = p;
+    }
+    x
+}
+
+/// Joins the sets of `a` and `b`, keeping the smaller root (order independent).
+#[inline]
+pub(crate) fn union(parent: &mut [u32], a: u32, b: u32) {
+    let (ra, rb) = (find(parent, a), find(parent, b));
+    if ra != rb {
+        let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
+        parent[hi as usize] = lo;
+    }
+}
+
+impl Engine<'_> {
+    /// Whether vertex `v` is free in the current attempt.
+    #[inline]
+    pub fn is_free(&self, v: u32) -> bool {
+        !self.vert_budget[v as usize].is_nan()
+    }
+
+    /// Propagates the seeds' budgets over UV edges (a max-heap Dijkstra on the remaining budget)
+    /// and collects the free vertices and the faces that touch one (both sorted).
+    pub fn optimization_area(&mut self) {
+        self.free.clear();
+        self.heap.clear();
+        for i in 0..self.seeds.len() {
+            let (v, b) = self.seeds[i];
+            let cur = self.vert_budget[v as usize];
+            if cur.is_nan() {
+                self.free.push(v);
+            }
+            if cur.is_nan() || b > cur {
+                self.vert_budget[v as usize] = b;
+                self.heap.push((OrdF64(b), v));
+            }
+        }
+        while let Some((OrdF64(r), v)) = self.heap.pop() {
+            if r < self.vert_budget[v as usize] {
+                continue;
+            }
+            let pv = self.t.uv_pos[v as usize];
+            let mut c = self.fan_head[v as usize];
+            while c != NONE {
+                let base = c - c % 3;
+                for k in 0..3 {
+                    let w = self.t.corner_uv[(base + k) as usize].0;
+                    if w == v {
+                        continue;
+                    }
+                    let rest = r - dist(pv, self.t.uv_pos[w as usize]);
+                    let cur = self.vert_budget[w as usize];
+                    if rest >= 0.0 && (cur.is_nan() || rest > cur) {
+                        if cur.is_nan() {
+                            self.free.push(w);
+                        }
+                        self.vert_budget[w as usize] = rest;
+                        self.heap.push((OrdF64(rest), w));
+                    }
+                }
+                c = self.fan_next[c as usize];
+            }
+        }
+        self.free.sort_unstable();
+        self.opt_faces.clear();
+        for i in 0..self.free.len() {
+            let mut c = self.fan_head[self.free[i] as usize];
+            while c != NONE {
+                let f = c / 3;
+                if !self.face_opt[f as usize] {
+                    self.face_opt[f as usize] = true;
+                    self.opt_faces.push(f);
+                }
+                c = self.fan_next[c as usize];
+            }
+        }
+        self.opt_faces.sort_unstable();
+    }
+
+    /// Builds `self.problem` from the optimization area: local vertices in order of first use by
+    /// the sorted faces, fixed = not free; then checks the patch's topology and makes sure every
+    /// connected part has a fixed vertex. `false` when the topology is not disk-like.
+    pub fn build_problem(&mut self) -> bool {
+        let p = &mut self.problem;
+        p.uv.clear();
+        p.fixed.clear();
+        p.triangles.clear();
+        p.targets.clear();
+        self.local_verts.clear();
+        for &f in &self.opt_faces {
+            let mut tri = [0u32; 3];
+            for (k, slot) in tri.iter_mut().enumerate() {
+                let v = self.t.corner_uv[3 * f as usize + k].0;
+                if self.vert_local[v as usize] == NONE {
+                    self.vert_local[v as usize] = self.local_verts.len() as u32;
+                    self.local_verts.push(v);
+                    p.uv.push(self.t.uv_pos[v as usize]);
+                    p.fixed.push(self.vert_budget[v as usize].is_nan());
+                }
+                *slot = self.vert_local[v as usize];
+            }
+            p.triangles.push(tri);
+            p.targets.push(orig_tri(self.t, f as usize));
+        }
+        if !self.patch_is_disk_like() {
+            return false;
+        }
+        self.anchor_components();
+        self.base_fixed.clear();
+        self.base_fixed.extend_from_slice(&self.problem.fixed);
+        true
+    }
+
+    /// Euler characteristic test per connected part: V − E + F = 2 − 2g − H must give g = 0 and
+    /// H ≥ 1 (a closed part, or one with handles, cannot be flattened without overlap), and no
+    /// edge may have more than two triangles.
+    fn patch_is_disk_like(&mut self) -> bool {
+        let n = self.problem.uv.len();
+        self.edges.clear();
+        for t in &self.problem.triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                if a == b {
+                    return false;
+                }
+                self.edges.push((a.min(b), a.max(b)));
+            }
+        }
+        self.edges.sort_unstable();
+        self.uf.clear();
+        self.uf.extend(0..n as u32);
+        self.uf2.clear();
+        self.uf2.extend(0..n as u32);
+        for t in &self.problem.triangles {
+            union(&mut self.uf, t[0], t[1]);
+            union(&mut self.uf, t[0], t[2]);
+        }
+        // Per component root: V, E, F and the number of boundary loops (components of the
+        // boundary-edge graph), gathered in `groups` as (root, packed counts) rows.
+        let mut counts: Vec<[i64; 4]> = vec![[0; 4]; n];
+        let mut on_boundary = vec![false; n];
+        let mut i = 0;
+        while i < self.edges.len() {
+            let mut j = i + 1;
+            while j < self.edges.len() && self.edges[j] == self.edges[i] {
+                j += 1;
+            }
+            let (a, b) = self.edges[i];
+            let mult = j - i;
+            if mult > 2 {
+                return false;
+            }
+            let r = find(&mut self.uf, a) as usize;
+            counts[r][1] += 1;
+            if mult == 1 {
+                union(&mut self.uf2, a, b);
+                on_boundary[a as usize] = true;
+                on_boundary[b as usize] = true;
+            }
+            i = j;
+        }
+        for v in 0..n as u32 {
+            let r = find(&mut self.uf, v) as usize;
+            counts[r][0] += 1;
+            if on_boundary[v as usize] && find(&mut self.uf2, v) == v {
+                counts[r][3] += 1;
+            }
+        }
+        for t in &self.problem.triangles {
+            let r = find(&mut self.uf, t[0]) as usize;
+            counts[r][2] += 1;
+        }
+        for v in 0..n {
+            if self.uf[v] as usize != v {
+                continue;
+            }
+            let [vc, ec, fc, hc] = counts[v];
+            if fc == 0 {
+                continue;
+            }
+            let chi = vc - ec + fc;
+            if hc == 0 || 2 - chi - hc != 0 {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Gives every connected part without a fixed vertex two fixed ones: the endpoints of the edge
+    /// whose current length best matches its target (the reference's `FixRandomEdgeWithinTolerance`,
+    /// without its unbounded search). `self.uf` holds the components from the topology check.
+    fn anchor_components(&mut self) {
+        let n = self.problem.uv.len();
+        let mut anchored = vec![false; n];
+        for v in 0..n as u32 {
+            if self.problem.fixed[v as usize] {
+                let r = find(&mut self.uf, v);
+                anchored[r as usize] = true;
+            }
+        }
+        for v in 0..n as u32 {
+            let r = find(&mut self.uf, v);
+            if anchored[r as usize] {
+                continue;
+            }
+            anchored[r as usize] = true;
+            let mut best = (f64::INFINITY, r, r);
+            for (t, target) in self.problem.triangles.iter().zip(&self.problem.targets) {
+                if find(&mut self.uf, t[0]) != r {
+                    continue;
+                }
+                for k in 0..3 {
+                    let (a, b) = (t[k], t[(k + 1) % 3]);
+                    let lt = dist(target[k], target[(k + 1) % 3]);
+                    if !(lt > 0.0) {
+                        continue;
+                    }
+                    let lc = dist(self.problem.uv[a as usize], self.problem.uv[b as usize]);
+                    let err = (lc - lt).abs() / lt;
+                    if err < best.0 {
+                        best = (err, a, b);
+                    }
+                }
+            }
+            self.problem.fixed[best.1 as usize] = true;
+            self.problem.fixed[best.2 as usize] = true;
+        }
+    }
+}

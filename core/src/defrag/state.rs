@@ -1,0 +1,347 @@
+//! The mutable state of the merge engine on top of a prepared [`Topology`]: the corners of each UV
+//! vertex (fans, as linked lists that fusing splices), per-face caches (signed area, weighted
+//! energy), per-chart face lists, the atlas-wide energy and border sums, the face grid, the undo
+//! logs and the scratch buffers reused by every attempt.
+
+use super::grid::FaceGrid;
+use super::ops::{EngineOp, initial_ops};
+use super::undo::Saved;
+use super::{MergeOptions, MergeReport};
+use crate::geometry::{Tri2, energy_weight, isometric_energy, signed_area2};
+use crate::plugin::LocalProblem;
+use crate::topology::{ChartId, HalfEdgeId, Topology, UvVertId};
+
+pub(crate) const NONE: u32 = u32::MAX;
+
+/// The result of the merge stage besides the updated [`Topology`]: dense chart ids for packing
+/// and the faces whose UVs were re-optimized.
+#[derive(Clone, Debug, Default)]
+pub struct MergedLayout {
+    /// Dense chart id of each face, `0..n_charts`, in order of each chart's first face.
+    pub face_chart: Vec<u32>,
+    pub n_charts: usize,
+    /// Faces inside the optimization area of some accepted merge (their UVs were reshaped).
+    pub optimized: Vec<bool>,
+}
+
+/// The undo logs of one attempt, one per table it may write.
+#[derive(Debug)]
+pub(crate) struct Logs {
+    pub pos: Saved<[f64; 2]>,
+    pub corner: Saved<UvVertId>,
+    pub twin: Saved<HalfEdgeId>,
+    pub head: Saved<u32>,
+    pub tail: Saved<u32>,
+    pub next: Saved<u32>,
+}
+
+/// The engine state. Field groups: layout fans, face caches, chart lists, sums, operations,
+/// logs and scratch.
+pub(crate) struct Engine<'t> {
+    pub t: &'t mut Topology,
+    pub opts: MergeOptions,
+    /// First and last corner of each UV vertex's fan, and the next corner of each corner.
+    pub fan_head: Vec<u32>,
+    pub fan_tail: Vec<u32>,
+    pub fan_next: Vec<u32>,
+    /// Twice the signed area of each face's current UV triangle.
+    pub face_area2: Vec<f64>,
+    /// Each face's energy weight (twice its original area) and weight × energy.
+    pub face_weight: Vec<f64>,
+    pub face_energy: Vec<f64>,
+    pub face_optimized: Vec<bool>,
+    /// Faces of each live chart (empty for charts merged into another and for frozen ones).
+    pub chart_faces: Vec<Vec<u32>>,
+    /// Σ weight × energy and Σ weight over the atlas.
+    pub energy_num: f64,
+    pub energy_den: f64,
+    /// Total UV border length now and in the input.
+    pub border_len: f64,
+    pub border_len_input: f64,
+    pub grid: FaceGrid,
+    pub grid_live: usize,
+    pub log: Logs,
+    pub ops: Vec<EngineOp>,
+    pub chart_ops: Vec<Vec<u32>>,
+    pub report: MergeReport,
+    // Scratch buffers, reused by every attempt (see `attempt` and `patch` for their meaning).
+    pub pairs: Vec<[UvVertId; 2]>,
+    pub pts: Vec<([f64; 2], [f64; 2])>,
+    pub vert_stamp: Vec<u32>,
+    pub face_stamp: Vec<u32>,
+    pub epoch: u32,
+    pub vert_local: Vec<u32>,
+    pub vert_budget: Vec<f64>,
+    pub vert_frozen: Vec<bool>,
+    pub moved: Vec<u32>,
+    pub seeds: Vec<(u32, f64)>,
+    pub free: Vec<u32>,
+    pub opt_faces: Vec<u32>,
+    pub local_verts: Vec<u32>,
+    pub problem: LocalProblem,
+    pub start_uv: Vec<[f64; 2]>,
+    pub candidates: Vec<u32>,
+    pub offenders: Vec<u32>,
+    pub heap: std::collections::BinaryHeap<(OrdF64, u32)>,
+    pub uf: Vec<u32>,
+    pub uf2: Vec<u32>,
+    pub edges: Vec<(u32, u32)>,
+    pub groups: Vec<(u32, u32)>,
+    pub face_opt: Vec<bool>,
+    pub frozen_list: Vec<u32>,
+    pub base_fixed: Vec<bool>,
+}
+
+/// An `f64` ordered by `total_cmp`, for heaps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct OrdF64(pub f64);
+
+impl Eq for OrdF64 {}
+
+impl PartialOrd for OrdF64 {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for OrdF64 {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.0.total_cmp(&other.0)
+    }
+}
+
+impl<'t> Engine<'t> {
+    /// Sets up the engine: mirrors charts of negative orientation (so that rigid alignments can
+    /// match any two charts, as the reference's `ReorientCharts` does), builds the fans, the face
+    /// caches, the chart lists, the grid and the operation table.
+    pub fn new(t: &'t mut Topology, opts: MergeOptions) -> Self {
+        let nf = t.face_chart.len();
+        let nv = t.uv_pos.len();
+        let mut report = MergeReport::default();
+
+        // Mirror u of every mergeable chart whose signed area is negative, about its bbox centre.
+        let mirror: Vec<bool> = t.charts.iter().map(|c| !c.frozen && c.area_signed < 0.0).collect();
+        for (p, c) in t.uv_pos.iter_mut().zip(&t.uv_chart) {
+            if !c.is_none() && mirror[c.idx()] {
+                let b = t.charts[c.idx()].bbox;
+                p[0] = (b[0] + b[2]) - p[0];
+            }
+        }
+        for (ch, &m) in t.charts.iter_mut().zip(&mirror) {
+            if m {
+                ch.area_signed = -ch.area_signed;
+                report.mirrored_charts += 1;
+            }
+        }
+
+        let nc = t.corner_uv.len();
+        let mut fan_head = vec![NONE; nv];
+        let mut fan_tail = vec![NONE; nv];
+        let mut fan_next = vec![NONE; nc];
+        for c in (0..nc).rev() {
+            let v = t.corner_uv[c];
+            if v.is_none() {
+                continue;
+            }
+            fan_next[c] = fan_head[v.idx()];
+            fan_head[v.idx()] = c as u32;
+            if fan_tail[v.idx()] == NONE {
+                fan_tail[v.idx()] = c as u32;
+            }
+        }
+
+        let mut face_area2 = vec![0.0; nf];
+        let mut face_weight = vec![0.0; nf];
+        let mut face_energy = vec![0.0; nf];
+        let (mut energy_num, mut energy_den) = (0.0, 0.0);
+        let mut chart_faces = vec![Vec::new(); t.charts.len()];
+        let mut extent = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+        let mut mergeable_area = 0.0;
+        let mut mergeable_faces = 0usize;
+        for f in 0..nf {
+            if !t.face_flags[f].has_usable_uv() {
+                continue;
+            }
+            let cur = current_tri(t, f);
+            let orig = orig_tri(t, f);
+            face_area2[f] = signed_area2(cur);
+            let w = energy_weight(orig);
+            face_weight[f] = w;
+            face_energy[f] = w * isometric_energy(orig, cur);
+            energy_num += face_energy[f];
+            energy_den += w;
+            if !t.face_flags[f].is_frozen() {
+                chart_faces[t.face_chart[f].idx()].push(f as u32);
+                for p in cur {
+                    extent = [
+                        extent[0].min(p[0]),
+                        extent[1].min(p[1]),
+                        extent[2].max(p[0]),
+                        extent[3].max(p[1]),
+                    ];
+                }
+                mergeable_area += 0.5 * face_area2[f].abs();
+                mergeable_faces += 1;
+            }
+        }
+        // Cells of about two mean triangles across keep both the cell lists and the candidate
+        // lists short.
+        let cell = if mergeable_faces > 0 {
+            (2.0 * (mergeable_area / mergeable_faces as f64).sqrt()).max(0.5)
+        } else {
+            1.0
+        };
+        let mut grid = FaceGrid::new(extent, cell, nf);
+        for chart in &chart_faces {
+            for &f in chart {
+                grid.insert(f, &current_tri(t, f as usize));
+            }
+        }
+        let border_len: f64 =
+            t.charts.iter().filter(|c| !c.frozen).map(|c| c.perimeter_uv).sum::<f64>();
+        let (ops, chart_ops) = initial_ops(t);
+        report.charts_before = t.charts.len() as u64;
+        report.mergeable_charts_before = t.charts.iter().filter(|c| !c.frozen).count() as u64;
+        report.ops_initial = ops.len() as u64;
+        report.energy_before = if energy_den > 0.0 { energy_num / energy_den } else { 0.0 };
+        report.uv_border_before = border_len;
+        Self {
+            opts,
+            fan_head,
+            fan_tail,
+            fan_next,
+            face_area2,
+            face_weight,
+            face_energy,
+            face_optimized: vec![false; nf],
+            chart_faces,
+            energy_num,
+            energy_den,
+            border_len,
+            border_len_input: border_len,
+            grid_live: mergeable_faces,
+            grid,
+            log: Logs {
+                pos: Saved::new(nv),
+                corner: Saved::new(nc),
+                twin: Saved::new(nc),
+                head: Saved::new(nv),
+                tail: Saved::new(nv),
+                next: Saved::new(nc),
+            },
+            ops,
+            chart_ops,
+            report,
+            pairs: Vec::new(),
+            pts: Vec::new(),
+            vert_stamp: vec![0; nv],
+            face_stamp: vec![0; nf],
+            epoch: 0,
+            vert_local: vec![NONE; nv],
+            vert_budget: vec![f64::NAN; nv],
+            vert_frozen: vec![false; nv],
+            moved: Vec::new(),
+            seeds: Vec::new(),
+            free: Vec::new(),
+            opt_faces: Vec::new(),
+            local_verts: Vec::new(),
+            problem: LocalProblem::default(),
+            start_uv: Vec::new(),
+            candidates: Vec::new(),
+            offenders: Vec::new(),
+            heap: std::collections::BinaryHeap::new(),
+            uf: Vec::new(),
+            uf2: Vec::new(),
+            edges: Vec::new(),
+            groups: Vec::new(),
+            face_opt: vec![false; nf],
+            frozen_list: Vec::new(),
+            base_fixed: Vec::new(),
+            t,
+        }
+    }
+
+    /// A fresh stamp for `vert_stamp` / `face_stamp` marks.
+    pub fn next_epoch(&mut self) -> u32 {
+        self.epoch = self.epoch.wrapping_add(1);
+        if self.epoch == 0 {
+            self.vert_stamp.iter_mut().for_each(|s| *s = 0);
+            self.face_stamp.iter_mut().for_each(|s| *s = 0);
+            self.epoch = 1;
+        }
+        self.epoch
+    }
+
+    /// The current UV triangle of face `f`.
+    #[inline]
+    pub fn tri(&self, f: usize) -> Tri2 {
+        current_tri(self.t, f)
+    }
+
+    /// The UV triangle face `f` had before the current attempt.
+    #[inline]
+    pub fn tri_before(&self, f: usize) -> Tri2 {
+        let at = |k: usize| {
+            let v = self.log.corner.before(&self.t.corner_uv, 3 * f + k);
+            self.log.pos.before(&self.t.uv_pos, v.idx())
+        };
+        [at(0), at(1), at(2)]
+    }
+
+    /// Rebuilds the grid from the current layout once stale entries outnumber live ones 3 to 1.
+    pub fn maybe_compact_grid(&mut self) {
+        if self.grid.entries() <= 4 * self.grid_live.max(1) + 1024 {
+            return;
+        }
+        self.grid.clear();
+        for c in 0..self.chart_faces.len() {
+            for i in 0..self.chart_faces[c].len() {
+                let f = self.chart_faces[c][i] as usize;
+                let tri = current_tri(self.t, f);
+                self.grid.insert(f as u32, &tri);
+            }
+        }
+    }
+
+    /// Whether chart `c` is live (mergeable and not merged into another chart).
+    pub fn chart_live(&self, c: ChartId) -> bool {
+        !self.chart_faces[c.idx()].is_empty()
+    }
+
+    /// The dense chart labelling and the optimized-face flags for packing.
+    pub fn layout(&self) -> MergedLayout {
+        let mut dense = vec![NONE; self.t.charts.len()];
+        let mut n = 0u32;
+        let face_chart = self
+            .t
+            .face_chart
+            .iter()
+            .map(|c| {
+                let d = &mut dense[c.idx()];
+                if *d == NONE {
+                    *d = n;
+                    n += 1;
+                }
+                *d
+            })
+            .collect();
+        MergedLayout {
+            face_chart,
+            n_charts: n as usize,
+            optimized: self.face_optimized.clone(),
+        }
+    }
+}
+
+/// The current UV triangle of face `f`.
+#[inline]
+pub(crate) fn current_tri(t: &Topology, f: usize) -> Tri2 {
+    let p = |k: usize| t.uv_pos[t.corner_uv[3 * f + k].idx()];
+    [p(0), p(1), p(2)]
+}
+
+/// The original UV triangle of face `f` (the ARAP target).
+#[inline]
+pub(crate) fn orig_tri(t: &Topology, f: usize) -> Tri2 {
+    [t.orig_uv[3 * f], t.orig_uv[3 * f + 1], t.orig_uv[3 * f + 2]]
+}

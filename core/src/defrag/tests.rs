@@ -1,0 +1,238 @@
+//! Unit tests of the merge engine's mechanics on small models built in code, with a solver that
+//! leaves the patch as it is (the ARAP solver lives in `scanatlas-plugins`; whole runs with it are
+//! in the integration tests).
+
+use super::*;
+use crate::index::{MaterialId, SheetId, UvId, VertexId};
+use crate::model::{Face, ImageSource, Material, Model, Sheet};
+use crate::plugin::{
+    LocalProblem, LocalSolver, MergeScorer, OpFeatures, Score, SolveError, SolveReport,
+};
+use crate::topology::Topology;
+
+const SHEET: u32 = 256;
+
+/// Leaves every vertex where it is.
+struct Keep;
+
+impl LocalSolver for Keep {
+    fn solve(&mut self, _: &mut LocalProblem) -> Result<SolveReport, SolveError> {
+        Ok(SolveReport::default())
+    }
+}
+
+/// Ranks by matching error only, with no filters.
+struct ByError;
+
+impl MergeScorer for ByError {
+    fn score(&self, op: &OpFeatures) -> Score {
+        Score::Appeal(1.0 / (1.0 + op.mean_match_error) / (1.0 + op.failures as f64))
+    }
+}
+
+fn model_with(positions: Vec<[f64; 3]>) -> Model {
+    let mut m = Model { positions, ..Model::default() };
+    m.sheets.push(Sheet { image: ImageSource::File("s.png".into()), size: Some((SHEET, SHEET)) });
+    m.materials.push(Material { name: "m".into(), sheet: Some(SheetId(0)), extra: vec![] });
+    m
+}
+
+fn add_face(m: &mut Model, v: [u32; 3], texel: [[f64; 2]; 3]) {
+    let base = m.uvs.len() as u32;
+    m.uvs.extend(texel.iter().map(|t| [t[0] / f64::from(SHEET), t[1] / f64::from(SHEET)]));
+    m.faces.push(Face {
+        v: v.map(VertexId),
+        uv: Some([UvId(base), UvId(base + 1), UvId(base + 2)]),
+        n: None,
+        material: Some(MaterialId(0)),
+    });
+}
+
+/// A rigid map of the plane: rotation by `angle` then translation, at `scale` texels per unit.
+fn rigid(angle: f64, t: [f64; 2], scale: f64) -> impl Fn([f64; 3]) -> [f64; 2] {
+    let (c, s) = (angle.cos(), angle.sin());
+    move |p| [scale * (c * p[0] - s * p[1]) + t[0], scale * (s * p[0] + c * p[1]) + t[1]]
+}
+
+/// An `n × n` flat grid; quads with `i < n / 2` go to chart 0 (mapped by `left`), the others to
+/// chart 1 (mapped by `right`).
+fn two_halves(
+    n: u32,
+    left: impl Fn([f64; 3]) -> [f64; 2],
+    right: impl Fn([f64; 3]) -> [f64; 2],
+) -> Model {
+    let mut p = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            p.push([f64::from(i), f64::from(j), 0.0]);
+        }
+    }
+    let mut m = model_with(p);
+    let g = |i: u32, j: u32| j * (n + 1) + i;
+    for j in 0..n {
+        for i in 0..n {
+            let c = [g(i, j), g(i + 1, j), g(i + 1, j + 1), g(i, j + 1)];
+            let map = |v: u32| {
+                let q = m.positions[v as usize];
+                if i < n / 2 { left(q) } else { right(q) }
+            };
+            let t = c.map(map);
+            add_face(&mut m, [c[0], c[1], c[2]], [t[0], t[1], t[2]]);
+            add_face(&mut m, [c[0], c[2], c[3]], [t[0], t[2], t[3]]);
+        }
+    }
+    m
+}
+
+fn prepare(m: &Model) -> Topology {
+    Topology::build(m, &[Some((SHEET, SHEET))]).expect("valid fixture")
+}
+
+fn run(m: &Model, opts: &MergeOptions) -> (Topology, MergeReport) {
+    let mut t = prepare(m);
+    let (report, _) = merge_charts(&mut t, &ByError, &mut Keep, opts).expect("valid options");
+    (t, report)
+}
+
+#[test]
+fn a_rigidly_moved_half_merges_back_at_every_angle() {
+    for deg in [-170.0f64, -90.0, -30.0, 0.0, 45.0, 120.0, 180.0] {
+        let m = two_halves(
+            8,
+            rigid(0.0, [20.0, 20.0], 4.0),
+            rigid(deg.to_radians(), [150.0, 60.0], 4.0),
+        );
+        let t0 = prepare(&m);
+        assert_eq!(t0.report.charts, 2, "{deg}°");
+        let (t, r) = run(&m, &MergeOptions::default());
+        assert_eq!((r.accepted, r.charts_after), (1, 1), "{deg}°: {r:?}");
+        assert!(r.energy_after < 1e-12, "{deg}°: energy {}", r.energy_after);
+        // The independent check: the written-back model is one edge-connected UV component.
+        let out = prepare(&merged_model(&m, &t));
+        assert_eq!(out.report.uv_components, 1, "{deg}°");
+        assert_eq!(out.report.seams, 0, "{deg}°");
+        // Every face kept, in order, with its positions.
+        let back = merged_model(&m, &t);
+        assert_eq!(back.faces.len(), m.faces.len());
+        for (a, b) in back.faces.iter().zip(&m.faces) {
+            assert_eq!(a.v, b.v);
+        }
+        // The UV border drops by the two sides of the dissolved seam (8 edges of 4 texels).
+        let drop = r.uv_border_before - r.uv_border_after;
+        assert!((drop - 2.0 * 8.0 * 4.0).abs() < 1e-9, "{deg}°: border drop {drop}");
+    }
+}
+
+/// Every table the engine may write, bit for bit.
+fn snapshot(t: &Topology) -> Vec<u64> {
+    let mut s = Vec::new();
+    s.extend(t.corner_uv.iter().map(|u| u64::from(u.0)));
+    s.extend(t.uv_pos.iter().flat_map(|p| [p[0].to_bits(), p[1].to_bits()]));
+    s.extend(t.he_uv_twin.iter().map(|h| u64::from(h.0)));
+    s.extend(t.face_chart.iter().map(|c| u64::from(c.0)));
+    s.extend(t.uv_chart.iter().map(|c| u64::from(c.0)));
+    for c in &t.charts {
+        s.extend([
+            u64::from(c.n_faces),
+            c.area_signed.to_bits(),
+            c.perimeter_uv.to_bits(),
+            c.area_3d.to_bits(),
+        ]);
+        s.extend(c.bbox.map(f64::to_bits));
+    }
+    s
+}
+
+#[test]
+fn a_rejected_merge_restores_every_byte() {
+    // The right half is stretched by 20% along the seam, so fusing distorts it; a zero budget
+    // rejects that.
+    let stretched = |p: [f64; 3]| [100.0 + 4.0 * p[0], 30.0 + 4.8 * p[1]];
+    let m = two_halves(8, rigid(0.3, [60.0, 20.0], 4.0), stretched);
+    let mut t = prepare(&m);
+    let before = snapshot(&t);
+    let opts = MergeOptions { global_distortion: 0.0, ..MergeOptions::default() };
+    let (r, _) = merge_charts(&mut t, &ByError, &mut Keep, &opts).expect("valid options");
+    assert_eq!(r.accepted, 0);
+    assert!(r.attempted >= 1 && r.rejected.total() == r.attempted, "{r:?}");
+    assert_eq!(r.rejected.global_distortion, r.attempted);
+    assert_eq!(snapshot(&t), before);
+    // With the default budget the same merge goes through.
+    let (_, r) = run(&m, &MergeOptions::default());
+    assert_eq!(r.accepted, 1, "{r:?}");
+}
+
+/// A developable cone whose eight 90° sectors add up to 720°: each half lies flat as a full disk
+/// with a slit, the whole cannot lie flat without covering itself twice. Chart A holds sectors
+/// 0–3, chart B sectors 4–7, each with an inner and an outer ring.
+fn cone_halves() -> Model {
+    // Ring vertices at unit distance from the apex, consecutive ones √2 apart (90° apex angles).
+    let (r, h) = (0.765_366_9_f64, 0.643_594_3_f64);
+    let mut p = vec![[0.0, 0.0, 0.0]];
+    for ring in 1..=2 {
+        for k in 0..8 {
+            let a = std::f64::consts::TAU * f64::from(k) / 8.0;
+            let z = if k % 2 == 0 { h } else { -h };
+            let s = f64::from(ring);
+            p.push([s * r * a.cos(), s * r * a.sin(), s * z]);
+        }
+    }
+    let mut m = model_with(p);
+    let inner = |k: u32| 1 + k % 8;
+    let outer = |k: u32| 9 + k % 8;
+    for k in 0..8u32 {
+        // Develop each half about its own apex: ray k at angle (k mod 4)·90°, plus an offset.
+        let (base, origin) = if k < 4 { (0, [60.0, 60.0]) } else { (4, [180.0, 180.0]) };
+        let at = |ray: u32, rho: f64| {
+            let a = f64::from(ray - base) * std::f64::consts::FRAC_PI_2;
+            [origin[0] + 10.0 * rho * a.cos(), origin[1] + 10.0 * rho * a.sin()]
+        };
+        let (c, i0, i1, o0, o1) = (at(k, 0.0), at(k, 1.0), at(k + 1, 1.0), at(k, 2.0), at(k + 1, 2.0));
+        add_face(&mut m, [0, inner(k), inner(k + 1)], [c, i0, i1]);
+        add_face(&mut m, [inner(k), outer(k), outer(k + 1)], [i0, o0, o1]);
+        add_face(&mut m, [inner(k), outer(k + 1), inner(k + 1)], [i0, o1, i1]);
+    }
+    m
+}
+
+#[test]
+fn a_merge_that_would_overlap_is_refused_early_or_after_the_solve() {
+    let m = cone_halves();
+    assert_eq!(prepare(&m).report.charts, 2);
+    // Distortion thresholds out of the way, so only the overlap checks can refuse it.
+    let lax =
+        MergeOptions { local_distortion: 1e9, global_distortion: 1e9, ..MergeOptions::default() };
+    // A tiny α frees only the fused vertices: the outer rings stay fixed and collide.
+    let (t, r) = run(&m, &MergeOptions { alpha: 0.01, ..lax.clone() });
+    assert_eq!(r.accepted, 0, "{r:?}");
+    assert!(r.rejected.early_overlap >= 1, "{r:?}");
+    assert_eq!(t.report.charts, 2);
+    // The seams match exactly here, so the default α frees no more: refused all the same.
+    let (_, r) = run(&m, &lax);
+    assert_eq!(r.accepted, 0, "{r:?}");
+    assert!(r.rejected.early_overlap + r.rejected.fold + r.rejected.overlap >= 1, "{r:?}");
+}
+
+#[test]
+fn the_same_input_gives_the_same_bits() {
+    let stretched = |p: [f64; 3]| [100.0 + 4.0 * p[0], 30.0 + 4.2 * p[1]];
+    let m = two_halves(10, rigid(-0.4, [60.0, 20.0], 4.0), stretched);
+    let (a, ra) = run(&m, &MergeOptions::default());
+    let (b, rb) = run(&m, &MergeOptions::default());
+    assert_eq!(snapshot(&a), snapshot(&b));
+    assert_eq!((ra.accepted, ra.attempted), (rb.accepted, rb.attempted));
+}
+
+#[test]
+fn no_retry_and_time_limit_and_border_target_stop_the_loop() {
+    let m = two_halves(8, rigid(0.0, [20.0, 20.0], 4.0), rigid(1.0, [150.0, 60.0], 4.0));
+    let (_, r) = run(&m, &MergeOptions { uv_border_target: 1.0, ..MergeOptions::default() });
+    // The input border is not below 100% of itself, so one merge happens, then the loop stops.
+    assert_eq!(r.accepted, 1);
+    assert_eq!(r.stop, StopReason::BorderTarget);
+    let (_, r) = run(&m, &MergeOptions::default());
+    assert_eq!(r.stop, StopReason::QueueEmpty);
+    let bad = MergeOptions { alpha: f64::NAN, ..MergeOptions::default() };
+    let mut t = prepare(&m);
+    assert!(merge_charts(&mut t, &ByError, &mut Keep, &bad).is_err());
+}
