@@ -32,6 +32,8 @@ pub struct GlobalArgs {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Defragments a textured model's atlas: merges charts, repacks, writes new textures.
+    Defrag(DefragArgs),
     /// Atlas figures of a model: charts, seams, solidity, texels, defects.
     Stats(StatsArgs),
     /// Writes a synthetic photogrammetry-like scan with a known true colour.
@@ -127,4 +129,50 @@ pub struct ConvertArgs {
     /// Folder for the temporary tile files (default: beside the output).
     #[arg(long)]
     pub work_dir: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
+pub struct DefragArgs {
+    /// Input model (.obj, .gltf, .glb, .ply).
+    pub input: PathBuf,
+    /// Output model (.obj, .gltf, .glb, .ply); sheets are written beside it.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// m: maximum mean alignment error, in multiples of the mean seam length.
+    #[arg(long, default_value_t = 2.0)]
+    pub matching_tolerance: f64,
+    /// b: an inter-chart merge must dissolve at least this fraction of one chart's perimeter.
+    #[arg(long, default_value_t = 0.2)]
+    pub boundary_tolerance: f64,
+    /// d: maximum mean isometric energy of an optimization area.
+    #[arg(long, default_value_t = 0.5)]
+    pub local_distortion: f64,
+    /// g: maximum mean isometric energy of the whole atlas (a budget for the run).
+    #[arg(long, default_value_t = 0.025)]
+    pub global_distortion: f64,
+    /// α: optimization area radius in multiples of each fused vertex's displacement.
+    #[arg(long, default_value_t = 5.0)]
+    pub alpha: f64,
+    /// Stop once the UV border is below this fraction of the input's (0: never).
+    #[arg(long, default_value_t = 0.0)]
+    pub uv_border_target: f64,
+    /// Stop merging after this many seconds (0: no limit; the only option that makes the output
+    /// depend on timing).
+    #[arg(long, default_value_t = 0.0)]
+    pub time_limit: f64,
+    /// Merge scorer plugin (see `scanatlas plugins`).
+    #[arg(long, default_value = "paper")]
+    pub scorer: String,
+    /// Local solver plugin.
+    #[arg(long, default_value = "arap")]
+    pub solver: String,
+    /// Never retry an operation that failed (the paper's NoRetry ablation).
+    #[arg(long)]
+    pub no_retry: bool,
+    /// Write the merged UVs on the input sheets only: no packing, no new textures.
+    #[arg(long)]
+    pub merge_only: bool,
+    /// Write the full run report as JSON to this file.
+    #[arg(long, value_name = "FILE.json")]
+    pub report: Option<PathBuf>,
 }

@@ -115,7 +115,11 @@ impl Engine<'_> {
                 *slot = self.vert_local[v as usize];
             }
             p.triangles.push(tri);
-            p.targets.push(orig_tri(self.t, f as usize));
+            let mut target = orig_tri(self.t, f as usize);
+            if self.face_mirrored[f as usize] {
+                target.iter_mut().for_each(|q| q[0] = -q[0]);
+            }
+            p.targets.push(target);
         }
         if !self.patch_is_disk_like() {
             return false;
@@ -126,74 +130,125 @@ impl Engine<'_> {
         true
     }
 
-    /// Euler characteristic test per connected part: V − E + F = 2 − 2g − H must give g = 0 and
-    /// H ≥ 1 (a closed part, or one with handles, cannot be flattened without overlap), and no
-    /// edge may have more than two triangles.
+    /// Euler characteristic test per connected part: with every boundary vertex split into one
+    /// copy per boundary fan (as the reference splits non-manifold vertices), V − E + F = 2 − 2g − H
+    /// must give g = 0 and H ≥ 1: a closed part, or one with handles, cannot be flattened without
+    /// overlap. Boundary loops are walked along directed boundary half-edges, turning around each
+    /// vertex through the triangles, so loops that touch at a vertex count separately. An edge
+    /// with three triangles, or used twice in one direction (inconsistent orientation), fails.
     fn patch_is_disk_like(&mut self) -> bool {
         let n = self.problem.uv.len();
-        self.edges.clear();
-        for t in &self.problem.triangles {
+        // Directed half-edges (from, to, triangle·3 + k), sorted for lookups.
+        let mut he: Vec<(u32, u32, u32)> = Vec::with_capacity(3 * self.problem.triangles.len());
+        for (t, tri) in self.problem.triangles.iter().enumerate() {
             for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
                 if a == b {
                     return false;
                 }
-                self.edges.push((a.min(b), a.max(b)));
+                he.push((a, b, 3 * t as u32 + k as u32));
             }
         }
-        self.edges.sort_unstable();
+        he.sort_unstable();
+        if he.windows(2).any(|w| (w[0].0, w[0].1) == (w[1].0, w[1].1)) {
+            return false;
+        }
+        let find_he = |a: u32, b: u32| -> Option<usize> {
+            he.binary_search_by(|x| (x.0, x.1).cmp(&(a, b))).ok()
+        };
         self.uf.clear();
         self.uf.extend(0..n as u32);
-        self.uf2.clear();
-        self.uf2.extend(0..n as u32);
         for t in &self.problem.triangles {
             union(&mut self.uf, t[0], t[1]);
             union(&mut self.uf, t[0], t[2]);
         }
-        // Per component root: V, E, F and the number of boundary loops (components of the
-        // boundary-edge graph), gathered in `groups` as (root, packed counts) rows.
-        let mut counts: Vec<[i64; 4]> = vec![[0; 4]; n];
-        let mut on_boundary = vec![false; n];
-        let mut i = 0;
-        while i < self.edges.len() {
-            let mut j = i + 1;
-            while j < self.edges.len() && self.edges[j] == self.edges[i] {
-                j += 1;
-            }
-            let (a, b) = self.edges[i];
-            let mult = j - i;
-            if mult > 2 {
-                return false;
-            }
+        // Per component root: [V (interior), boundary half-edges, E, F, H].
+        let mut counts: Vec<[i64; 5]> = vec![[0; 5]; n];
+        let mut boundary_vertex = vec![false; n];
+        let mut visited = vec![false; he.len()];
+        for &(a, b, _) in &he {
             let r = find(&mut self.uf, a) as usize;
-            counts[r][1] += 1;
-            if mult == 1 {
-                union(&mut self.uf2, a, b);
-                on_boundary[a as usize] = true;
-                on_boundary[b as usize] = true;
-            }
-            i = j;
-        }
-        for v in 0..n as u32 {
-            let r = find(&mut self.uf, v) as usize;
-            counts[r][0] += 1;
-            if on_boundary[v as usize] && find(&mut self.uf2, v) == v {
-                counts[r][3] += 1;
+            match find_he(b, a) {
+                Some(_) => {
+                    if a < b {
+                        counts[r][2] += 1;
+                    }
+                }
+                None => {
+                    counts[r][1] += 1;
+                    counts[r][2] += 1;
+                    boundary_vertex[a as usize] = true;
+                }
             }
         }
         for t in &self.problem.triangles {
             let r = find(&mut self.uf, t[0]) as usize;
-            counts[r][2] += 1;
+            counts[r][3] += 1;
+        }
+        for v in 0..n as u32 {
+            if !boundary_vertex[v as usize] {
+                let r = find(&mut self.uf, v) as usize;
+                counts[r][0] += 1;
+            }
+        }
+        // Walk each boundary loop: after boundary half-edge a→b, turn around b through the
+        // triangles until the next half-edge leaving b that has no opposite.
+        let tris = &self.problem.triangles;
+        for start in 0..he.len() {
+            let (a0, b0, _) = he[start];
+            if visited[start] || find_he(b0, a0).is_some() {
+                continue;
+            }
+            let r = find(&mut self.uf, a0) as usize;
+            counts[r][4] += 1;
+            let mut cur = start;
+            let mut guard = 0usize;
+            while !visited[cur] {
+                visited[cur] = true;
+                guard += 1;
+                if guard > he.len() {
+                    return false;
+                }
+                let (_, b, _) = he[cur];
+                // The half-edge leaving b in the same triangle as the incoming one.
+                let mut t = he[cur].2 / 3;
+                let mut out = {
+                    let tri = tris[t as usize];
+                    let k = (0..3).find(|&k| tri[k] == b).unwrap_or(0);
+                    (b, tri[(k + 1) % 3])
+                };
+                let mut steps = 0usize;
+                loop {
+                    match find_he(out.1, out.0) {
+                        None => break,
+                        Some(opp) => {
+                            // Cross into the neighbour and take its half-edge leaving b.
+                            t = he[opp].2 / 3;
+                            let tri = tris[t as usize];
+                            let k = (0..3).find(|&k| tri[k] == b).unwrap_or(0);
+                            out = (b, tri[(k + 1) % 3]);
+                        }
+                    }
+                    steps += 1;
+                    if steps > he.len() {
+                        return false;
+                    }
+                }
+                match find_he(out.0, out.1) {
+                    Some(next) => cur = next,
+                    None => return false,
+                }
+            }
         }
         for v in 0..n {
             if self.uf[v] as usize != v {
                 continue;
             }
-            let [vc, ec, fc, hc] = counts[v];
+            let [vi, bh, ec, fc, hc] = counts[v];
             if fc == 0 {
                 continue;
             }
-            let chi = vc - ec + fc;
+            let chi = vi + bh - ec + fc;
             if hc == 0 || 2 - chi - hc != 0 {
                 return false;
             }

@@ -50,6 +50,9 @@ pub(crate) struct Engine<'t> {
     pub face_weight: Vec<f64>,
     pub face_energy: Vec<f64>,
     pub face_optimized: Vec<bool>,
+    /// Faces of the charts mirrored at the start: their ARAP targets are mirrored too, so every
+    /// target has the orientation its triangle should have in the current layout.
+    pub face_mirrored: Vec<bool>,
     /// Faces of each live chart (empty for charts merged into another and for frozen ones).
     pub chart_faces: Vec<Vec<u32>>,
     /// Σ weight × energy and Σ weight over the atlas.
@@ -84,8 +87,6 @@ pub(crate) struct Engine<'t> {
     pub offenders: Vec<u32>,
     pub heap: std::collections::BinaryHeap<(OrdF64, u32)>,
     pub uf: Vec<u32>,
-    pub uf2: Vec<u32>,
-    pub edges: Vec<(u32, u32)>,
     pub groups: Vec<(u32, u32)>,
     pub face_opt: Vec<bool>,
     pub frozen_list: Vec<u32>,
@@ -214,6 +215,7 @@ impl<'t> Engine<'t> {
             face_weight,
             face_energy,
             face_optimized: vec![false; nf],
+            face_mirrored: t.face_chart.iter().map(|c| mirror[c.idx()]).collect(),
             chart_faces,
             energy_num,
             energy_den,
@@ -251,8 +253,6 @@ impl<'t> Engine<'t> {
             offenders: Vec::new(),
             heap: std::collections::BinaryHeap::new(),
             uf: Vec::new(),
-            uf2: Vec::new(),
-            edges: Vec::new(),
             groups: Vec::new(),
             face_opt: vec![false; nf],
             frozen_list: Vec::new(),

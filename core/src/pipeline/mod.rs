@@ -2,6 +2,7 @@
 //! between formats through the tile store, and the errors and reports of whole runs.
 
 pub mod convert;
+pub mod defrag;
 
 use std::path::{Path, PathBuf};
 
@@ -20,6 +21,12 @@ pub enum PipelineError {
     File { path: PathBuf, source: std::io::Error },
     #[error("{0}")]
     Usage(String),
+    #[error(transparent)]
+    Plugin(#[from] crate::plugin::PluginError),
+    #[error(transparent)]
+    Topology(#[from] crate::topology::TopologyError),
+    #[error(transparent)]
+    Defrag(#[from] crate::defrag::DefragError),
 }
 
 /// Reads a model and fills in every sheet's size from its image header (no pixels decoded).

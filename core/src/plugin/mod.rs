@@ -131,7 +131,10 @@ pub enum SolveError {
 }
 
 /// Improves the UVs of a local problem in place. Must never leave a flipped triangle that was not
-/// flipped at the start, must keep fixed vertices bit-identical, and must not increase the energy.
+/// flipped at the start, must keep fixed vertices bit-identical, and must not make the pair
+/// (triangles not oriented as they should be, energy) worse in lexicographic order: with no
+/// flipped triangle at the start the energy never increases; triangles that start flipped (a
+/// merge can fold some around a fused vertex) may be unfolded at the price of energy.
 /// A solver instance is used by one worker at a time, so it may keep scratch buffers.
 pub trait LocalSolver: Send {
     fn solve(&mut self, problem: &mut LocalProblem) -> Result<SolveReport, SolveError>;

@@ -634,20 +634,30 @@ impl ArapSolver {
         true
     }
 
-    /// The energy of `self.trial`, and whether it is admissible: it must not flip a triangle that
-    /// was not flipped at the start (one that was oriented as expected and no longer is,
-    /// degenerate included).
-    fn evaluate_trial(&self, problem: &LocalProblem) -> (f64, bool) {
+    /// The energy of `self.trial`, whether it is admissible (it must not flip a triangle that was
+    /// not flipped at the start: one that was oriented as expected and no longer is, degenerate
+    /// included), and how many unguarded triangles are still not oriented as expected.
+    fn evaluate_trial(&self, problem: &LocalProblem) -> (f64, bool, usize) {
         let mut sum = EnergySum::default();
         let mut admissible = true;
+        let mut wrong = 0;
         for (t, &target) in self.tris.iter().zip(&problem.targets) {
             let x = corners(&self.trial, t.v);
-            if t.guarded && admissible && orientation(x) != t.expected {
-                admissible = false;
+            if orientation(x) != t.expected {
+                if t.guarded {
+                    admissible = false;
+                } else {
+                    wrong += 1;
+                }
             }
             sum.add(target, x);
         }
-        (sum.mean(), admissible)
+        (sum.mean(), admissible, wrong)
+    }
+
+    /// How many triangles of `uv` are not oriented as expected.
+    fn count_wrong(&self, uv: &[[f64; 2]]) -> usize {
+        self.tris.iter().filter(|t| orientation(corners(uv, t.v)) != t.expected).count()
     }
 }
 
@@ -663,10 +673,17 @@ impl LocalSolver for ArapSolver {
         };
         let mut report = SolveReport { energy_before: energy, energy_after: energy, iterations: 0 };
         self.number_free_vertices(problem)?;
-        if self.free.is_empty() || energy == 0.0 || self.params.max_iterations == 0 {
+        if self.free.is_empty() || self.params.max_iterations == 0 {
             return Ok(report);
         }
         self.prepare_triangles(problem);
+        // Triangles flipped at the start (a merge can fold some around a fused vertex) must be
+        // undone first: the isometric energy ignores orientation, so a folded layout can score
+        // lower than the unfolded one, and the best iterate is chosen by (wrong, energy).
+        let mut wrong = self.count_wrong(&problem.uv);
+        if energy == 0.0 && wrong == 0 {
+            return Ok(report);
+        }
         self.build_pattern();
         self.assemble(&problem.uv);
         let nf = self.free.len();
@@ -715,13 +732,14 @@ impl LocalSolver for ArapSolver {
             if !finite {
                 return Err(SolveError::Diverged);
             }
-            let (next, admissible) = self.evaluate_trial(problem);
-            if admissible && next <= energy {
+            let (next, admissible, next_wrong) = self.evaluate_trial(problem);
+            if admissible && (next_wrong < wrong || (next_wrong == wrong && next <= energy)) {
                 for &v in &self.free {
                     problem.uv[v as usize] = self.trial[v as usize];
                 }
-                stalled = if next < energy { 0 } else { stalled + 1 };
+                stalled = if next < energy || next_wrong < wrong { 0 } else { stalled + 1 };
                 energy = next;
+                wrong = next_wrong;
                 report.energy_after = energy;
             } else {
                 stalled += 1;
@@ -730,8 +748,8 @@ impl LocalSolver for ArapSolver {
             let change = (running - next).abs() / running;
             running = next;
             std::mem::swap(&mut self.current, &mut self.trial);
-            if energy == 0.0
-                || running == 0.0
+            if (energy == 0.0 && wrong == 0)
+                || (running == 0.0 && wrong == 0)
                 || change < self.params.tolerance
                 || (rising && stalled >= STALL_LIMIT)
             {

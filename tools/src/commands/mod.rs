@@ -1,6 +1,7 @@
 //! Dispatch of the subcommands.
 
 mod convert;
+mod defrag;
 mod demo;
 mod stats;
 mod synth;
@@ -16,5 +17,6 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Synth(a) => synth::run(&a, quiet),
         Command::Demo(a) => demo::run(&a, quiet),
         Command::Convert(a) => convert::run(&a, quiet),
+        Command::Defrag(a) => defrag::run(&a, quiet),
     }
 }
