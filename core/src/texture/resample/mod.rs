@@ -92,6 +92,11 @@ pub struct ResampleReport {
     pub texels_dilated: u64,
     /// Texels filled by push-pull.
     pub texels_push_pull: u64,
+    /// Most push-pull pyramid levels built above one sheet.
+    pub push_pull_levels: u32,
+    /// Largest size in bytes of one sheet's push-pull pyramid (temporary tile files in the work
+    /// directory: disk and page cache, not heap).
+    pub push_pull_pyramid_bytes: u64,
     /// Output sheets no face covers; push-pull has nothing to spread there and leaves them zero.
     pub empty_sheets: usize,
     /// Milliseconds bucketing faces per tile.
@@ -339,6 +344,8 @@ pub fn resample_sheets(
             let t = Instant::now();
             let pp = push_pull(&mut store, &mut cov, &opts.work_dir)?;
             report.texels_push_pull += pp.filled;
+            report.push_pull_levels = report.push_pull_levels.max(pp.levels);
+            report.push_pull_pyramid_bytes = report.push_pull_pyramid_bytes.max(pp.pyramid_bytes);
             report.ms_push_pull += ms_since(t);
         }
         if written == 0 {

@@ -180,6 +180,34 @@ fn bilinear_sampling_of_a_linear_ramp_is_exact_to_rounding() {
 }
 
 #[test]
+fn sampling_clamps_at_the_sheet_edges() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = store_from(dir.path(), 8, 6, PixelFormat::RGB8, |i, j, c| {
+        (i * 30 + j * 5 + c as u32) as f64
+    });
+    let conv = pixel::Conv::new(PixelFormat::RGB8, PixelFormat::RGB8);
+    let mut v = [0.0; 4];
+    // Beyond every border and corner the nearest edge texel is returned unchanged.
+    for (p, (i, j)) in [
+        ([-3.0, 2.5], (0, 3)),
+        ([20.0, 2.5], (7, 3)),
+        ([3.5, -1.0], (3, 5)),
+        ([3.5, 9.0], (3, 0)),
+        ([-1.0, -1.0], (0, 5)),
+        ([8.0, 6.0], (7, 0)),
+    ] {
+        pixel::bilinear(&input, &conv, p, &mut v);
+        let want = input.pixel(i, j);
+        for c in 0..3 {
+            assert_eq!(v[c], want[c] as f64, "{p:?} channel {c}");
+        }
+    }
+    // Half-way between two texel centres along a border: their mean.
+    pixel::bilinear(&input, &conv, [1.0, 0.5], &mut v);
+    assert_eq!(v[0], (0.0 + 30.0 + 2.0 * 25.0) / 2.0);
+}
+
+#[test]
 fn a_sampled_triangle_of_a_smooth_image_reaches_high_psnr() {
     let dir = tempfile::tempdir().unwrap();
     let (w, h) = (400u32, 400u32);
@@ -199,8 +227,8 @@ fn a_sampled_triangle_of_a_smooth_image_reaches_high_psnr() {
         let p = src_point(&src, b);
         let (cx, cy) = (p[0] - 0.5, h as f64 - p[1] - 0.5);
         let px = out.sheets[0].pixel(i, j);
-        for ch in 0..3 {
-            let d = px[ch] as f64 - f(cx, cy, ch).round().clamp(0.0, 255.0);
+        for (ch, &v) in px.iter().enumerate() {
+            let d = v as f64 - f(cx, cy, ch).round().clamp(0.0, 255.0);
             se += d * d;
             n += 1;
         }
@@ -261,7 +289,7 @@ fn random_faces(
             let dst = [0, 1, 2].map(|_| [o[0] + rng.unit() * 60.0, o[1] + rng.unit() * 60.0]);
             if k % 3 == 0 {
                 let g = GridTransform {
-                    mirror: rng.next() % 2 == 0,
+                    mirror: rng.next().is_multiple_of(2),
                     quarter_turns: (rng.next() % 4) as u8,
                     offset: [(rng.next() % 50) as i64, (rng.next() % 50) as i64],
                 };
