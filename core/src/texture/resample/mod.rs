@@ -8,7 +8,7 @@
 //! (invariant 3); any other face maps the texel centre through barycentrics to the input
 //! texel-space point and samples the input bilinearly. Input pixels are read only through the
 //! memory-mapped [`TileStore`]s. Then gutters are grown by [`dilate`] and every remaining texel is
-//! filled by push-pull ([`pushpull`]), so no mip level of the result blends in background colour.
+//! filled by push-pull ([`push_pull`]), so no mip level of the result blends in background colour.
 //!
 //! Determinism (invariant 4): a tile is written by one worker only, and its faces are visited in
 //! increasing face index, so where faces overlap the later face wins whatever the thread count.

@@ -3,7 +3,7 @@
 //!
 //! Everything a worker needs per texel is on the stack; the loops allocate nothing.
 
-use super::pixel::{Conv, bilinear, store_pixel};
+use super::pixel::{Conv, bilinear, copy_pixel, store_pixel};
 use super::{FaceMapping, Plan};
 use crate::texture::gutter::tile_bit;
 use crate::texture::raster::{PixelRect, rasterize_triangle};
@@ -61,7 +61,7 @@ impl Context<'_> {
                 let verbatim = plan.exact.and_then(|g| g.source_pixel(i, j, dst_h, sw, sh));
                 match verbatim {
                     Some((x, y)) if conv.is_identity() => {
-                        out.copy_from_slice(src.pixel(x, y));
+                        copy_pixel(out, src.pixel(x, y), bpp);
                         counts.copied += 1;
                     }
                     Some((x, y)) => {
