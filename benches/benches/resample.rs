@@ -41,7 +41,13 @@ fn faces(src_of: impl Fn([f64; 2]) -> [f64; 2], exact: Option<GridTransform>) ->
             let q = [[x0, y0], [x0 + c, y0], [x0 + c, y0 + c], [x0, y0 + c]];
             for t in [[0, 1, 2], [0, 2, 3]] {
                 let dst = t.map(|k| q[k]);
-                v.push(FaceMapping { dst_sheet: 0, dst, src_sheet: 0, src: dst.map(&src_of), exact });
+                v.push(FaceMapping {
+                    dst_sheet: 0,
+                    dst,
+                    src_sheet: 0,
+                    src: dst.map(&src_of),
+                    exact,
+                });
             }
         }
     }
@@ -61,15 +67,19 @@ fn bench(c: &mut Criterion) {
 
     // One run of each configuration first, so the stage timings of the report can be read
     // beside criterion's figures.
-    for (name, f, o) in [
-        ("grid_preserved_copy", &exact, &opts),
-        ("bilinear_sample", &sampled, &opts),
-    ] {
+    for (name, f, o) in
+        [("grid_preserved_copy", &exact, &opts), ("bilinear_sample", &sampled, &opts)]
+    {
         let r = resample_sheets(&[&src], f, &[(SIZE, SIZE)], o).unwrap().report;
         eprintln!(
             "{name}: bucket {:.1} ms, raster {:.1} ms ({:.1} Mtexel/s), dilate {:.1} ms, \
              push-pull {:.1} ms, total {:.1} ms",
-            r.ms_bucket, r.ms_raster, r.raster_mtexel_per_s, r.ms_dilate, r.ms_push_pull, r.ms_total
+            r.ms_bucket,
+            r.ms_raster,
+            r.raster_mtexel_per_s,
+            r.ms_dilate,
+            r.ms_push_pull,
+            r.ms_total
         );
     }
     let mut g = c.benchmark_group("resample_2048_rgba8");
