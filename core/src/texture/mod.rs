@@ -10,6 +10,7 @@ pub mod decode;
 pub mod encode;
 pub mod gutter;
 pub mod raster;
+pub mod resample;
 pub mod store;
 
 use std::path::PathBuf;
@@ -35,6 +36,9 @@ pub enum TextureError {
     /// Width or height zero, or too large for the format or the address space.
     #[error("{image}: invalid size {width}x{height}: {msg}")]
     Size { image: String, width: u64, height: u64, msg: String },
+    /// A texture mapping (faces, sheets, options) that cannot be resampled.
+    #[error("texture resampling: {msg}")]
+    Mapping { msg: String },
 }
 
 /// The type of one sample (one channel of one pixel).
