@@ -298,7 +298,7 @@ pub fn pack_layout(
     let mut frame_uv = input.vert_uv.to_vec();
     let mut frames: Vec<Option<Frame>> = vec![None; input.n_charts];
     let mut scratch = Vec::new();
-    for c in 0..input.n_charts {
+    for (c, slot) in frames.iter_mut().enumerate() {
         let fs = faces.of(c);
         if fs.is_empty() {
             continue;
@@ -314,7 +314,7 @@ pub fn pack_layout(
             &mut scratch,
         )?;
         report.anchored_charts += usize::from(frame.g0.is_some());
-        frames[c] = Some(frame);
+        *slot = Some(frame);
     }
     let packed: Vec<u32> =
         (0..input.n_charts as u32).filter(|&c| frames[c as usize].is_some()).collect();

@@ -157,3 +157,24 @@ fn registered_by_name_with_parameters() {
     assert!(r.packer("skyline", &p).is_err(), "skyline has no seed");
     assert!(r.packer("maxrects", &Params::new()).is_err());
 }
+
+/// The scale of a real defragmented scan: 10k charts of mixed sizes on 8192² sheets. Ignored by
+/// default (it takes seconds); run with `--ignored` to time it.
+#[test]
+#[ignore]
+fn ten_thousand_mixed_charts_on_large_sheets() {
+    let mut items = random_items(11, 9_900, 60);
+    items.extend(random_items(12, 100, 600));
+    let t = std::time::Instant::now();
+    let out = run(&HorizonPacker::default(), &items, (8192, 8192));
+    let all: Vec<u32> = (0..items.len() as u32).collect();
+    let used = super::used_area(&items, &out.placements, &all, out.sheets.len());
+    let cells: u64 = items.iter().map(|i| i.footprint.count()).sum();
+    eprintln!(
+        "{} items: {:.2} s, {} sheets, density {:.3}",
+        items.len(),
+        t.elapsed().as_secs_f64(),
+        out.sheets.len(),
+        cells as f64 / used as f64
+    );
+}
