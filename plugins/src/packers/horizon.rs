@@ -28,7 +28,8 @@ pub struct HorizonPacker {
     /// Upper bound of shuffled orders (the reference tries 5·K).
     pub max_shuffles: usize,
     /// Start each sheet no wider than a square holding the remaining items needs, so a small
-    /// atlas trims to a square instead of a strip; it widens when an item does not fit.
+    /// atlas trims to a square instead of a strip; it grows by 10% steps when an item does not
+    /// fit.
     pub square: bool,
 }
 
@@ -92,8 +93,9 @@ fn profiles(item: &PackItem) -> Vec<Profile> {
 /// The per-column state of one sheet.
 #[derive(Clone, Debug)]
 struct Sheet {
-    /// Columns `0..width_limit` may be used; at most the sheet width.
+    /// Columns `0..width_limit` and rows `0..height_limit` may be used; at most the sheet size.
     width_limit: u32,
+    height_limit: u32,
     /// First free row above everything placed, per column.
     horizon: Vec<u32>,
     /// The inner horizon: a free gap `gap_lo..gap_hi` below the horizon, per column.
@@ -105,10 +107,11 @@ struct Sheet {
 }
 
 impl Sheet {
-    fn new(width: u32, width_limit: u32) -> Self {
+    fn new(width: u32, width_limit: u32, height_limit: u32) -> Self {
         let n = width as usize;
         Self {
             width_limit,
+            height_limit,
             horizon: vec![0; n],
             gap_lo: vec![0; n],
             gap_hi: vec![0; n],
@@ -117,11 +120,20 @@ impl Sheet {
         }
     }
 
-    /// Opens columns up to `width` (new columns are empty).
-    fn widen(&mut self, width: u32) {
-        self.width_limit = width.min(self.horizon.len() as u32);
+    /// Grows the usable area by 10% per axis (at least one cell), up to the sheet size `(sw,
+    /// sh)`; new columns are empty. False when it already is the full sheet.
+    fn grow(&mut self, sw: u32, sh: u32) -> bool {
+        if self.width_limit >= sw && self.height_limit >= sh {
+            return false;
+        }
+        let step = |v: u32, max: u32| {
+            ((u64::from(v) * 11).div_ceil(10).max(u64::from(v) + 1)).min(u64::from(max)) as u32
+        };
+        self.width_limit = step(self.width_limit, sw).min(self.horizon.len() as u32);
+        self.height_limit = step(self.height_limit, sh);
         self.min_horizon =
             self.horizon[..self.width_limit as usize].iter().copied().min().unwrap_or(0);
+        true
     }
 
     /// The lowest upper-horizon position `(top, x, y)` of profile `p`, if any fits under
@@ -301,8 +313,9 @@ impl HorizonPacker {
         Ok(sheets.len())
     }
 
-    /// First fit over the open sheets; then the last sheet widened to the full width; then a new
-    /// sheet. `None` only when the item fits no empty sheet, which the caller has ruled out.
+    /// First fit over the open sheets, the last one growing by 10% steps (as the reference grows
+    /// its containers) until it reaches the full sheet size; then a new sheet. `None` only when
+    /// the item fits no empty sheet, which the caller has ruled out.
     fn place_item(
         &self,
         sheets: &mut Vec<Sheet>,
@@ -310,35 +323,40 @@ impl HorizonPacker {
         remaining: u64,
         (sw, sh): (u32, u32),
     ) -> Option<(usize, (u8, u32, u32))> {
-        for (s, sheet) in sheets.iter_mut().enumerate() {
-            if let Some(p) = sheet.try_place(profs, sh) {
-                return Some((s, p));
-            }
-        }
         let n = sheets.len();
-        if let Some(last) = sheets.last_mut()
-            && last.width_limit < sw
-        {
-            last.widen(sw);
-            if let Some(p) = last.try_place(profs, sh) {
-                return Some((n - 1, p));
+        for (s, sheet) in sheets.iter_mut().enumerate() {
+            loop {
+                if let Some(p) = sheet.try_place(profs, sheet.height_limit) {
+                    return Some((s, p));
+                }
+                if s + 1 < n || !sheet.grow(sw, sh) {
+                    break;
+                }
             }
         }
-        let narrowest = profs.iter().map(|p| p.width).min().unwrap_or(1);
-        let limit = if self.square {
-            let side = ((remaining as f64) / ASSUMED_DENSITY).sqrt().ceil();
-            (side.min(f64::from(sw)) as u32).max(narrowest).min(sw)
+        let (w0, h0) = if self.square {
+            // A square that holds the remaining items at the assumed density, but no smaller
+            // than this item needs.
+            let side =
+                ((remaining as f64) / ASSUMED_DENSITY).sqrt().ceil().min(f64::from(u32::MAX));
+            let side = side as u32;
+            let w = profs.iter().map(|p| p.width.max(side)).min().unwrap_or(side);
+            let h = profs.iter().map(|p| p.height.max(side)).min().unwrap_or(side);
+            (w.min(sw), h.min(sh))
         } else {
-            sw
+            (sw, sh)
         };
-        let mut sheet = Sheet::new(sw, limit);
-        let mut p = sheet.try_place(profs, sh);
-        if p.is_none() && sheet.width_limit < sw {
-            sheet.widen(sw);
-            p = sheet.try_place(profs, sh);
-        }
+        let mut sheet = Sheet::new(sw, w0, h0);
+        let placed = loop {
+            if let Some(p) = sheet.try_place(profs, sheet.height_limit) {
+                break Some(p);
+            }
+            if !sheet.grow(sw, sh) {
+                break None;
+            }
+        };
         sheets.push(sheet);
-        p.map(|p| (n, p))
+        placed.map(|p| (n, p))
     }
 }
 
