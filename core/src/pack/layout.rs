@@ -204,6 +204,7 @@ fn chart_frame(
     chart: u32,
     verts: &[u32],
     anchor: Option<&Anchor>,
+    claim: &[[f64; 2]],
     pad: u32,
     frame_uv: &mut [[f64; 2]],
     scratch: &mut Vec<[f64; 2]>,
@@ -218,10 +219,19 @@ fn chart_frame(
         }
     };
     let mut frame = Frame { angle, s, b: [0, 0], width: 0, height: 0, g0: None };
+    // A vertex of a preserved face sits at its exact grid image `g0(orig)` already in the frame,
+    // so the footprint covers the final triangles exactly, not only up to the group tolerance.
+    let pos = |frame: &Frame, v: u32| match g_lin {
+        Some(g) if !claim[v as usize][0].is_nan() => {
+            let q = g.linear(claim[v as usize]);
+            [q[0] + (-frame.b[0]) as f64, q[1] + (-frame.b[1]) as f64]
+        }
+        _ => frame.map(input.vert_uv[v as usize]),
+    };
     let bounds = |frame: &Frame| {
         let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
         for &v in verts {
-            let p = frame.map(input.vert_uv[v as usize]);
+            let p = pos(frame, v);
             for k in 0..2 {
                 lo[k] = lo[k].min(p[k]);
                 hi[k] = hi[k].max(p[k]);
@@ -258,7 +268,7 @@ fn chart_frame(
     }
     frame.g0 = g_lin.map(|g| GridTransform { offset: [-frame.b[0], -frame.b[1]], ..g });
     for &v in verts {
-        frame_uv[v as usize] = frame.map(input.vert_uv[v as usize]);
+        frame_uv[v as usize] = pos(&frame, v);
     }
     Ok(frame)
 }
@@ -309,6 +319,7 @@ pub fn pack_layout(
             c as u32,
             verts.of(c),
             anchor.as_ref(),
+            &claim,
             opts.padding,
             &mut frame_uv,
             &mut scratch,
