@@ -203,12 +203,13 @@ fn chart_frame(
     input: &LayoutInput,
     chart: u32,
     verts: &[u32],
-    anchor: Option<&Anchor>,
-    claim: &[[f64; 2]],
+    anchor: Option<(&Anchor, &[[f64; 2]])>,
     pad: u32,
     frame_uv: &mut [[f64; 2]],
     scratch: &mut Vec<[f64; 2]>,
 ) -> Result<Frame, PackError> {
+    let claim = anchor.map_or(&[][..], |a| a.1);
+    let anchor = anchor.map(|a| a.0);
     let (angle, s, g_lin) = match anchor {
         Some(a) => (-a.residual, a.shift, Some(a.linear())),
         None => {
@@ -318,8 +319,7 @@ pub fn pack_layout(
             input,
             c as u32,
             verts.of(c),
-            anchor.as_ref(),
-            &claim,
+            anchor.as_ref().map(|a| (a, &claim[..])),
             opts.padding,
             &mut frame_uv,
             &mut scratch,
