@@ -11,6 +11,7 @@ pub mod index;
 pub mod io;
 pub mod metrics;
 pub mod model;
+pub mod pack;
 pub mod pipeline;
 pub mod plugin;
 pub mod synth;

@@ -1,13 +1,20 @@
-//! The plugin API of scanatlas: the `MergeScorer`, `LocalSolver` and (later) `Packer` traits, the
+//! The plugin API of scanatlas: the `MergeScorer`, `LocalSolver` and `Packer` traits, the
 //! views they receive, and the `Registry` that maps stable kebab-case names to factories.
 //!
 //! API boundary: `scanatlas-plugins` sees only this module (and `geometry`). One dynamic call is
 //! made per operation or per local problem; hot loops inside a plugin stay monomorphic.
 
+mod packer;
 mod registry;
 
+pub use packer::{
+    ALL_ROTATIONS, Footprint, MAX_FOOTPRINT_CELLS, PackItem, PackOutput, Packer, PackerError,
+    Placement, RotationMask, check_packing, fits_sheet, oversized_sheet, quarter_turn_frame,
+    rotated_cell,
+};
 pub use registry::{
-    ParamInfo, ParamValue, Params, PluginError, PluginInfo, PluginKind, Registry, get_f64,
+    ParamInfo, ParamValue, Params, PluginError, PluginInfo, PluginKind, Registry, get_bool,
+    get_f64, get_u64,
 };
 
 /// What a scorer knows of a candidate merge operation: cheap, precomputed chart and seam features,

@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use super::{LocalSolver, MergeScorer};
+use super::{LocalSolver, MergeScorer, Packer};
 
 /// The kinds of plugins.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]
@@ -71,6 +71,7 @@ type ScorerFactory =
     Box<dyn Fn(&Params) -> Result<Box<dyn MergeScorer>, PluginError> + Send + Sync>;
 type SolverFactory =
     Box<dyn Fn(&Params) -> Result<Box<dyn LocalSolver>, PluginError> + Send + Sync>;
+type PackerFactory = Box<dyn Fn(&Params) -> Result<Box<dyn Packer>, PluginError> + Send + Sync>;
 
 struct Entry<F> {
     info: PluginInfo,
@@ -82,6 +83,7 @@ struct Entry<F> {
 pub struct Registry {
     scorers: BTreeMap<&'static str, Entry<ScorerFactory>>,
     solvers: BTreeMap<&'static str, Entry<SolverFactory>>,
+    packers: BTreeMap<&'static str, Entry<PackerFactory>>,
 }
 
 impl std::fmt::Debug for Registry {
@@ -89,6 +91,7 @@ impl std::fmt::Debug for Registry {
         f.debug_struct("Registry")
             .field("scorers", &self.scorers.keys().collect::<Vec<_>>())
             .field("solvers", &self.solvers.keys().collect::<Vec<_>>())
+            .field("packers", &self.packers.keys().collect::<Vec<_>>())
             .finish()
     }
 }
@@ -147,6 +150,14 @@ impl Registry {
         insert(&mut self.solvers, info, Box::new(factory))
     }
 
+    pub fn register_packer(
+        &mut self,
+        info: PluginInfo,
+        factory: impl Fn(&Params) -> Result<Box<dyn Packer>, PluginError> + Send + Sync + 'static,
+    ) -> Result<(), PluginError> {
+        insert(&mut self.packers, info, Box::new(factory))
+    }
+
     /// Builds the scorer `name`, refusing unknown names and parameters.
     pub fn scorer(&self, name: &str, params: &Params) -> Result<Box<dyn MergeScorer>, PluginError> {
         (lookup(&self.scorers, PluginKind::Scorer, name, params)?.factory)(params)
@@ -157,13 +168,53 @@ impl Registry {
         (lookup(&self.solvers, PluginKind::Solver, name, params)?.factory)(params)
     }
 
+    /// Builds the packer `name`, refusing unknown names and parameters.
+    pub fn packer(&self, name: &str, params: &Params) -> Result<Box<dyn Packer>, PluginError> {
+        (lookup(&self.packers, PluginKind::Packer, name, params)?.factory)(params)
+    }
+
     /// Every registered plugin, by kind then name.
     pub fn infos(&self) -> Vec<&PluginInfo> {
         self.scorers
             .values()
             .map(|e| &e.info)
             .chain(self.solvers.values().map(|e| &e.info))
+            .chain(self.packers.values().map(|e| &e.info))
             .collect()
+    }
+}
+
+/// Reads a whole-number parameter within `range`, falling back to the declared default.
+pub fn get_u64(
+    params: &Params,
+    info: &PluginInfo,
+    key: &str,
+    range: std::ops::RangeInclusive<u64>,
+) -> Result<u64, PluginError> {
+    let x = get_f64(params, info, key)?;
+    if x.fract() != 0.0 || x < *range.start() as f64 || x > *range.end() as f64 {
+        return Err(PluginError::BadParam {
+            kind: info.kind,
+            name: info.name.to_string(),
+            param: key.to_string(),
+            msg: format!("expected a whole number from {} to {}", range.start(), range.end()),
+        });
+    }
+    Ok(x as u64)
+}
+
+/// Reads a boolean parameter, falling back to the declared default.
+pub fn get_bool(params: &Params, info: &PluginInfo, key: &str) -> Result<bool, PluginError> {
+    let value =
+        params.get(key).or_else(|| info.params.iter().find(|p| p.name == key).map(|p| &p.default));
+    match value {
+        Some(ParamValue::Bool(b)) => Ok(*b),
+        _ => Err(PluginError::BadParam {
+            kind: info.kind,
+            name: info.name.to_string(),
+            param: key.to_string(),
+            msg: "expected true or false".to_string(),
+        }),
     }
 }
 
@@ -183,5 +234,51 @@ pub fn get_f64(params: &Params, info: &PluginInfo, key: &str) -> Result<f64, Plu
         ParamValue::Float(x) if x.is_finite() => Ok(*x),
         ParamValue::Int(i) => Ok(*i as f64),
         _ => Err(bad("expected a finite number")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plugin::{PackItem, PackOutput, PackerError};
+
+    struct Nothing;
+
+    impl Packer for Nothing {
+        fn pack(&self, _: &[PackItem], _: (u32, u32)) -> Result<PackOutput, PackerError> {
+            Ok(PackOutput::default())
+        }
+    }
+
+    fn info(name: &'static str) -> PluginInfo {
+        PluginInfo {
+            kind: PluginKind::Packer,
+            name,
+            summary: "test",
+            params: vec![ParamInfo { name: "seed", default: ParamValue::Int(0), help: "" }],
+        }
+    }
+
+    #[test]
+    fn packers_follow_the_registry_rules() {
+        let mut r = Registry::default();
+        r.register_packer(info("nothing"), |_| Ok(Box::new(Nothing))).unwrap();
+        assert!(matches!(
+            r.register_packer(info("nothing"), |_| Ok(Box::new(Nothing))),
+            Err(PluginError::Duplicate { kind: PluginKind::Packer, .. })
+        ));
+        assert!(r.packer("nothing", &Params::new()).is_ok());
+        match r.packer("other", &Params::new()) {
+            Err(PluginError::UnknownName { available, .. }) => assert_eq!(available, "nothing"),
+            other => panic!("{:?}", other.err()),
+        }
+        let mut p = Params::new();
+        p.insert("sed".into(), ParamValue::Int(1));
+        assert!(matches!(r.packer("nothing", &p), Err(PluginError::UnknownParam { .. })));
+        assert_eq!(r.infos().iter().filter(|i| i.kind == PluginKind::Packer).count(), 1);
+        let i = info("nothing");
+        assert_eq!(get_u64(&Params::new(), &i, "seed", 0..=10), Ok(0));
+        p.insert("seed".into(), ParamValue::Float(2.5));
+        assert!(get_u64(&p, &i, "seed", 0..=10).is_err());
     }
 }

@@ -1,0 +1,136 @@
+//! Packing orchestration (ARCHITECTURE §7, paper §4.5–4.6): grid-preserving anchors, chart
+//! footprints, the `Packer` plugin over one or more sheets, trimming, and the integer placement
+//! that lands preserved triangles exactly on the input texel grid.
+//!
+//! Every chart goes through one rigid map `current UV → chart frame` chosen before rasterization
+//! (for anchored charts: undo the group's sub-quarter-turn angle and its sub-texel offset; for the
+//! others: the minimum-area box orientation), then through the grid transform of its placement.
+//! Because the footprint is rasterized from exactly the frame the chart is placed in, the
+//! packer's no-overlap guarantee holds for the final UVs, and no sub-texel shift is needed after
+//! packing (unlike the reference's `IntegerShift`, which moves charts after the fact).
+
+mod anchor;
+mod footprint;
+mod layout;
+
+#[cfg(test)]
+mod tests;
+
+pub use layout::pack_layout;
+
+use crate::geometry::GridTransform;
+use crate::plugin::PackerError;
+
+/// What the packing stage reads: the final charts in texel space, and the original UVs.
+#[derive(Clone, Copy, Debug)]
+pub struct LayoutInput<'a> {
+    /// UV vertex of each corner `3·f + k`; `u32::MAX` for faces without UVs.
+    pub corner_vert: &'a [u32],
+    /// Current texel-space position of each UV vertex (after merging).
+    pub vert_uv: &'a [[f64; 2]],
+    /// Per corner: the ORIGINAL texel-space UV, on input sheet `face_sheet[f]`.
+    pub orig_uv: &'a [[f64; 2]],
+    /// Chart of each face, dense `0..n_charts`; `u32::MAX` = no UV (left out of packing).
+    pub face_chart: &'a [u32],
+    /// Input sheet of each face.
+    pub face_sheet: &'a [u32],
+    /// 3D area of each face.
+    pub face_area_3d: &'a [f64],
+    pub n_charts: usize,
+    /// Width and height of each input sheet, in pixels.
+    pub input_sheet_sizes: &'a [(u32, u32)],
+}
+
+/// Options of the packing stage.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PackOptions {
+    /// Free texels around every chart; two charts end up at least `2·padding` texels apart.
+    pub padding: u32,
+    /// Output sheet size limit; `None` = the largest input sheet (by area, then width).
+    pub max_sheet_size: Option<(u32, u32)>,
+    /// A chart is anchored when its largest rigid group covers at least this fraction of the
+    /// chart's 3D area (the paper's 5%).
+    pub anchor_min_fraction: f64,
+    /// A face is a rigid image of its original triangle when every corner is within this many
+    /// texels, relative to the triangle's size (at least 1 texel), of the best rigid fit.
+    pub rigid_tolerance: f64,
+}
+
+impl Default for PackOptions {
+    fn default() -> Self {
+        Self { padding: 4, max_sheet_size: None, anchor_min_fraction: 0.05, rigid_tolerance: 1e-6 }
+    }
+}
+
+/// Figures of a packing, for the run report.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct PackReport {
+    /// Charts packed (charts with at least one face).
+    pub charts: usize,
+    /// Charts with a grid-preserving anchor.
+    pub anchored_charts: usize,
+    /// Faces whose texels are copied verbatim.
+    pub preserved_faces: usize,
+    /// 3D area of the preserved faces over the 3D area of all packed faces.
+    pub preserved_area_fraction: f64,
+    /// Output sheets.
+    pub sheets: usize,
+    /// Charts too large for a sheet of the size limit, each given a sheet of its own.
+    pub oversized_charts: Vec<u32>,
+    /// Texels of all trimmed output sheets.
+    pub texels: u64,
+    /// Cells of all footprints (padding included).
+    pub footprint_cells: u64,
+    /// UV area of all packed faces over `texels`.
+    pub occupancy: f64,
+    /// The size limit used.
+    pub max_sheet_size: (u32, u32),
+    /// Wall-clock milliseconds per step (informative only; never affects the output).
+    pub anchors_ms: f64,
+    pub footprints_ms: f64,
+    pub packing_ms: f64,
+    pub finish_ms: f64,
+}
+
+/// The packed atlas.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PackedLayout {
+    /// Output texel-space position of each UV vertex, in its output sheet. Vertices no packed
+    /// face uses keep their input value.
+    pub vert_uv: Vec<[f64; 2]>,
+    /// Output sheet of each face (`u32::MAX` for faces left out).
+    pub face_sheet: Vec<u32>,
+    /// Trimmed output sheet sizes.
+    pub sheet_sizes: Vec<(u32, u32)>,
+    /// The face's output triangle is exactly `chart_transform.apply(orig)`, so its texels may be
+    /// copied verbatim from its input sheet.
+    pub face_preserved: Vec<bool>,
+    /// Per chart: for anchored charts, the map from input texels of the chart's preserved source
+    /// sheet to output texels of its output sheet.
+    pub chart_transform: Vec<Option<GridTransform>>,
+    pub report: PackReport,
+}
+
+/// Errors of the packing stage.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum PackError {
+    #[error("{what} has {got} entries, expected {expected}")]
+    Length { what: &'static str, expected: usize, got: usize },
+    #[error("face {face}: chart {chart} is not below the chart count {n_charts}")]
+    Chart { face: u32, chart: u32, n_charts: usize },
+    #[error("face {face}: input sheet {sheet} does not exist")]
+    Sheet { face: u32, sheet: u32 },
+    #[error("face {face}: corner {corner} has no valid UV vertex")]
+    Corner { face: u32, corner: u32 },
+    #[error("face {face}: non-finite UV coordinates")]
+    NonFinite { face: u32 },
+    #[error("UV vertex {vertex} is used by charts {a} and {b}")]
+    SharedVertex { vertex: u32, a: u32, b: u32 },
+    #[error("chart {chart} spans {extent:?} texels, too large to rasterize")]
+    ChartTooLarge { chart: u32, extent: [f64; 2] },
+    #[error("bad packing options: {0}")]
+    Options(String),
+    #[error("packer: {0}")]
+    Packer(#[from] PackerError),
+}

@@ -1,0 +1,370 @@
+//! Tests of the packing stage on synthetic charts: signed rotations and mirrors are undone,
+//! preserved faces land bit-exactly on `transform.apply(orig)`, charts keep `2·padding` apart on
+//! their sheets, sheets overflow and trim, and bad input is refused.
+
+use proptest::prelude::*;
+
+use super::footprint::rasterize;
+use super::*;
+use crate::plugin::{
+    PackItem, PackOutput, Packer, PackerError, Placement, fits_sheet, oversized_sheet,
+};
+
+/// A shelf packer on bounding boxes that turns item `i` by `i mod 4` quarter turns, so the
+/// orchestration's handling of every turn is exercised without the plugins crate.
+struct Shelf;
+
+impl Packer for Shelf {
+    fn pack(&self, items: &[PackItem], (sw, sh): (u32, u32)) -> Result<PackOutput, PackerError> {
+        let mut out = PackOutput::default();
+        let (mut x, mut y, mut shelf) = (0u32, 0u32, 0u32);
+        let mut sheet = None::<u32>;
+        let mut oversized = Vec::new();
+        for (i, item) in items.iter().enumerate() {
+            if !fits_sheet(item, (sw, sh)) {
+                oversized.push(i as u32);
+                out.placements.push(Placement { sheet: 0, quarter_turns: 0, x: 0, y: 0 });
+                continue;
+            }
+            let k = (0..4u8)
+                .map(|d| (i as u8 + d) % 4)
+                .find(|&k| {
+                    let (w, h) = item.footprint.rotated_dims(k);
+                    w <= sw && h <= sh
+                })
+                .unwrap_or(0);
+            let (w, h) = item.footprint.rotated_dims(k);
+            if x + w > sw {
+                (x, y, shelf) = (0, y + shelf, 0);
+            }
+            if sheet.is_none() || y + h > sh {
+                out.sheets.push((sw, sh));
+                sheet = Some(out.sheets.len() as u32 - 1);
+                (x, y, shelf) = (0, 0, 0);
+            }
+            out.placements.push(Placement { sheet: sheet.unwrap_or(0), quarter_turns: k, x, y });
+            x += w;
+            shelf = shelf.max(h);
+        }
+        for &i in &oversized {
+            let (k, size) = oversized_sheet(&items[i as usize], (sw, sh));
+            out.placements[i as usize] =
+                Placement { sheet: out.sheets.len() as u32, quarter_turns: k, x: 0, y: 0 };
+            out.sheets.push(size);
+        }
+        out.oversized = oversized;
+        Ok(out)
+    }
+}
+
+/// A mesh under construction: charts of `n × m` texel grids split into triangles.
+#[derive(Default)]
+struct Mesh {
+    corner_vert: Vec<u32>,
+    vert_uv: Vec<[f64; 2]>,
+    orig_uv: Vec<[f64; 2]>,
+    face_chart: Vec<u32>,
+    face_sheet: Vec<u32>,
+    face_area: Vec<f64>,
+    n_charts: usize,
+}
+
+fn rot(a: f64, p: [f64; 2]) -> [f64; 2] {
+    let (s, c) = a.sin_cos();
+    [c * p[0] - s * p[1], s * p[0] + c * p[1]]
+}
+
+impl Mesh {
+    /// Adds a chart whose original UVs are an `n × m` grid of unit squares starting at `origin`
+    /// on `sheet`, currently at `move_to(orig)`.
+    fn chart(
+        &mut self,
+        n: u32,
+        m: u32,
+        origin: [f64; 2],
+        sheet: impl Fn(u32) -> u32,
+        move_to: impl Fn([f64; 2]) -> [f64; 2],
+    ) -> u32 {
+        let chart = self.n_charts as u32;
+        self.n_charts += 1;
+        let base = self.vert_uv.len() as u32;
+        let orig = |i: u32, j: u32| [origin[0] + f64::from(i), origin[1] + f64::from(j)];
+        for j in 0..=m {
+            for i in 0..=n {
+                self.vert_uv.push(move_to(orig(i, j)));
+            }
+        }
+        let id = |i: u32, j: u32| base + j * (n + 1) + i;
+        let mut q = 0;
+        for j in 0..m {
+            for i in 0..n {
+                for tri in
+                    [[(i, j), (i + 1, j), (i + 1, j + 1)], [(i, j), (i + 1, j + 1), (i, j + 1)]]
+                {
+                    for (a, b) in tri {
+                        self.corner_vert.push(id(a, b));
+                        self.orig_uv.push(orig(a, b));
+                    }
+                    self.face_chart.push(chart);
+                    self.face_sheet.push(sheet(q));
+                    self.face_area.push(0.5);
+                    q += 1;
+                }
+            }
+        }
+        chart
+    }
+
+    fn input<'a>(&'a self, sheets: &'a [(u32, u32)]) -> LayoutInput<'a> {
+        LayoutInput {
+            corner_vert: &self.corner_vert,
+            vert_uv: &self.vert_uv,
+            orig_uv: &self.orig_uv,
+            face_chart: &self.face_chart,
+            face_sheet: &self.face_sheet,
+            face_area_3d: &self.face_area,
+            n_charts: self.n_charts,
+            input_sheet_sizes: sheets,
+        }
+    }
+}
+
+const SHEETS: [(u32, u32); 2] = [(256, 256), (256, 256)];
+
+/// Bit patterns of UVs, for exact comparisons.
+trait MapBits {
+    fn map_bits(&self) -> Vec<[u64; 2]>;
+}
+
+impl MapBits for Vec<[f64; 2]> {
+    fn map_bits(&self) -> Vec<[u64; 2]> {
+        self.iter().map(|p| p.map(f64::to_bits)).collect()
+    }
+}
+
+/// Every promise of `PackedLayout` that holds for any input: preserved faces exact, UVs strictly
+/// inside their sheets, charts `2·padding` apart.
+fn check_layout(m: &Mesh, out: &PackedLayout, padding: u32) {
+    for f in 0..m.face_chart.len() {
+        let c = m.face_chart[f];
+        if c == u32::MAX {
+            assert_eq!(out.face_sheet[f], u32::MAX);
+            continue;
+        }
+        let (w, h) = out.sheet_sizes[out.face_sheet[f] as usize];
+        for k in 0..3 {
+            let p = out.vert_uv[m.corner_vert[3 * f + k] as usize];
+            assert!(
+                p[0] > 0.0 && p[1] > 0.0 && p[0] < f64::from(w) && p[1] < f64::from(h),
+                "{p:?}"
+            );
+            if out.face_preserved[f] {
+                let g =
+                    out.chart_transform[c as usize].expect("preserved face of an unanchored chart");
+                assert_eq!(p, g.apply(m.orig_uv[3 * f + k]), "face {f} corner {k}");
+                assert_eq!(g.apply(m.orig_uv[3 * f + k]).map(f64::to_bits), p.map(f64::to_bits));
+            }
+        }
+    }
+    // Packing moves every chart rigidly: each face keeps its edge lengths.
+    for f in 0..m.face_chart.len() {
+        if m.face_chart[f] == u32::MAX {
+            continue;
+        }
+        for (a, b) in [(0, 1), (1, 2), (2, 0)] {
+            let d = |uv: &[[f64; 2]]| {
+                let (p, q) =
+                    (uv[m.corner_vert[3 * f + a] as usize], uv[m.corner_vert[3 * f + b] as usize]);
+                (p[0] - q[0]).hypot(p[1] - q[1])
+            };
+            let (before, after) = (d(&m.vert_uv), d(&out.vert_uv));
+            assert!(
+                (before - after).abs() < 1e-6 * before.max(1.0),
+                "face {f}: {before} → {after}"
+            );
+        }
+    }
+    // Dilate each chart's touched texels by `padding`: no texel may be claimed by two charts.
+    let mut owner = std::collections::HashMap::new();
+    for c in 0..m.n_charts as u32 {
+        let faces: Vec<usize> = (0..m.face_chart.len()).filter(|&f| m.face_chart[f] == c).collect();
+        let Some(&f0) = faces.first() else { continue };
+        let s = out.face_sheet[f0];
+        let (w, h) = out.sheet_sizes[s as usize];
+        let tris = faces
+            .iter()
+            .map(|&f| [0, 1, 2].map(|k| out.vert_uv[m.corner_vert[3 * f + k] as usize]));
+        // Shift by `padding` so the dilated cells stay at non-negative indices.
+        let p = f64::from(padding);
+        let tris = tris.map(|t| t.map(|q| [q[0] + p, q[1] + p]));
+        let fp = rasterize(tris, w + 2 * padding + 2, h + 2 * padding + 2, padding).unwrap();
+        for y in 0..fp.height() {
+            for x in 0..fp.width() {
+                if fp.get(x, y)
+                    && let Some(other) = owner.insert((s, x, y), c)
+                {
+                    panic!("charts {other} and {c} closer than 2·{padding} at {x},{y}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn signed_rotations_and_mirrors_are_undone_exactly() {
+    for mirror in [false, true] {
+        for deg in [30.0f64, -30.0, 100.0, -100.0, 180.0, 0.0, 37.5] {
+            let mut m = Mesh::default();
+            let a = deg.to_radians();
+            // The right third is stretched, so those faces are resampled and their vertices move
+            // by the chart's rigid map alone: a wrong anchor angle would tear the chart there.
+            m.chart(
+                6,
+                4,
+                [100.3, 50.7],
+                |_| 0,
+                |p| {
+                    let p = if p[0] > 104.5 { [104.5 + (p[0] - 104.5) * 1.5, p[1]] } else { p };
+                    let p = if mirror { [-p[0], p[1]] } else { p };
+                    let r = rot(a, p);
+                    [r[0] + 400.123, r[1] - 77.77]
+                },
+            );
+            let out = pack_layout(&m.input(&SHEETS), &Shelf, &PackOptions::default()).unwrap();
+            assert_eq!(out.report.anchored_charts, 1, "{deg}° mirror {mirror}");
+            let kept = out.face_preserved.iter().filter(|&&p| p).count();
+            assert_eq!(kept, 32, "{deg}° mirror {mirror}: four columns of four squares");
+            let g = out.chart_transform[0].unwrap();
+            assert_eq!(g.mirror, mirror);
+            check_layout(&m, &out, 4);
+        }
+    }
+}
+
+#[test]
+fn partially_deformed_charts_preserve_only_their_rigid_group() {
+    let mut m = Mesh::default();
+    // A 10×10 chart whose right half is stretched: the left half stays rigid.
+    m.chart(
+        10,
+        10,
+        [5.5, 5.25],
+        |_| 0,
+        |p| {
+            let x = if p[0] > 10.5 { 10.5 + (p[0] - 10.5) * 1.3 } else { p[0] };
+            let r = rot(0.4, [x, p[1]]);
+            [r[0] + 0.3, r[1] + 0.9]
+        },
+    );
+    let out = pack_layout(&m.input(&SHEETS), &Shelf, &PackOptions::default()).unwrap();
+    let kept = out.face_preserved.iter().filter(|&&p| p).count();
+    assert_eq!(kept, 100, "the five left columns: 5·10 squares, two faces each");
+    check_layout(&m, &out, 4);
+    // Above the threshold nothing is anchored and the chart is free.
+    let opts = PackOptions { anchor_min_fraction: 0.6, ..PackOptions::default() };
+    let out = pack_layout(&m.input(&SHEETS), &Shelf, &opts).unwrap();
+    assert_eq!(out.report.anchored_charts, 0);
+    assert!(out.face_preserved.iter().all(|&p| !p) && out.chart_transform[0].is_none());
+    check_layout(&m, &out, 4);
+}
+
+#[test]
+fn preserved_faces_come_from_one_source_sheet() {
+    let mut m = Mesh::default();
+    // Faces 0..60 on sheet 1, the rest (140) on sheet 0, all moved by one rigid map.
+    m.chart(10, 10, [3.0, 4.0], |q| u32::from(q < 60), |p| [p[0] + 20.5, p[1] - 1.25]);
+    let out = pack_layout(&m.input(&SHEETS), &Shelf, &PackOptions::default()).unwrap();
+    for f in 0..m.face_chart.len() {
+        assert_eq!(out.face_preserved[f], m.face_sheet[f] == 0, "face {f}");
+    }
+    check_layout(&m, &out, 4);
+}
+
+#[test]
+fn sheets_overflow_trim_and_oversized_charts_get_their_own() {
+    let mut m = Mesh::default();
+    for i in 0..12 {
+        m.chart(20, 12, [f64::from(i) * 30.0, 0.5], |_| 0, |p| [p[0] + 0.25, p[1]]);
+    }
+    let big = m.chart(90, 10, [0.0, 100.0], |_| 1, |p| p);
+    let opts = PackOptions { max_sheet_size: Some((64, 64)), ..PackOptions::default() };
+    let out = pack_layout(&m.input(&SHEETS), &Shelf, &opts).unwrap();
+    assert_eq!(out.report.oversized_charts, vec![big]);
+    assert!(out.report.sheets >= 4, "{:?}", out.sheet_sizes);
+    let big_sheet = out.face_sheet[m.face_chart.iter().position(|&c| c == big).unwrap()];
+    // Integer corners touch the neighbouring texels: 90 + 2 by 10 + 2 texels, no gratuitous margin.
+    let (w, h) = out.sheet_sizes[big_sheet as usize];
+    assert_eq!((w.max(h), w.min(h)), (92, 12));
+    for &(w, h) in &out.sheet_sizes {
+        assert!(w <= 64 && h <= 64 || (w.max(h), w.min(h)) == (92, 12));
+    }
+    check_layout(&m, &out, 4);
+    // Deterministic, apart from the informative timings.
+    let again = pack_layout(&m.input(&SHEETS), &Shelf, &opts).unwrap();
+    assert_eq!(out.vert_uv.map_bits(), again.vert_uv.map_bits());
+    assert_eq!(
+        (&out.face_sheet, &out.sheet_sizes, &out.face_preserved, &out.chart_transform),
+        (&again.face_sheet, &again.sheet_sizes, &again.face_preserved, &again.chart_transform)
+    );
+}
+
+#[test]
+fn faces_without_uvs_are_left_out_and_bad_input_refused() {
+    let mut m = Mesh::default();
+    m.chart(3, 3, [0.5, 0.5], |_| 0, |p| p);
+    m.chart(3, 3, [10.5, 0.5], |_| 0, |p| p);
+    m.face_chart[0] = u32::MAX;
+    let out = pack_layout(&m.input(&SHEETS), &Shelf, &PackOptions::default()).unwrap();
+    assert_eq!(out.face_sheet[0], u32::MAX);
+    check_layout(&m, &out, 4);
+    let mut bad = m.corner_vert.clone();
+    bad[3 * 20] = 0; // A corner of chart 1 pointing at a vertex of chart 0.
+    let mut input = m.input(&SHEETS);
+    input.corner_vert = &bad;
+    assert!(matches!(
+        pack_layout(&input, &Shelf, &PackOptions::default()),
+        Err(PackError::SharedVertex { .. })
+    ));
+    let mut nan = m.vert_uv.clone();
+    nan[5][1] = f64::NAN;
+    let mut input = m.input(&SHEETS);
+    input.vert_uv = &nan;
+    assert!(matches!(
+        pack_layout(&input, &Shelf, &PackOptions::default()),
+        Err(PackError::NonFinite { .. })
+    ));
+    let mut input = m.input(&SHEETS);
+    input.face_area_3d = &m.face_area[1..];
+    assert!(matches!(
+        pack_layout(&input, &Shelf, &PackOptions::default()),
+        Err(PackError::Length { .. })
+    ));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    #[test]
+    fn random_charts_keep_apart_and_exact(
+        charts in prop::collection::vec(
+            (1u32..8, 1u32..6, -3.2f64..3.2, any::<bool>(), 0.0f64..1.0, 0.0f64..1.0, any::<bool>()),
+            1..12,
+        ),
+        padding in 0u32..5,
+    ) {
+        let mut m = Mesh::default();
+        for (i, &(n, k, angle, mirror, fx, fy, stretch)) in charts.iter().enumerate() {
+            m.chart(n, k, [10.0 * i as f64 + fx, fy], |_| 0, |p| {
+                let p = if mirror { [-p[0], p[1]] } else { p };
+                let p = if stretch { [p[0] * 1.1, p[1]] } else { p };
+                let r = rot(angle, p);
+                [r[0] + 3.7, r[1] + 0.01]
+            });
+        }
+        let opts = PackOptions { padding, max_sheet_size: Some((48, 40)), ..PackOptions::default() };
+        let out = pack_layout(&m.input(&SHEETS), &Shelf, &opts).unwrap();
+        check_layout(&m, &out, padding);
+        let rigid = charts.iter().filter(|c| !c.6).count();
+        prop_assert_eq!(out.report.anchored_charts, rigid);
+    }
+}

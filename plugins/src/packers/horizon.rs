@@ -1,0 +1,453 @@
+//! `horizon`: the paper's packer (§4.5, after [LPRM02, SWG*03, NS11]) on exact footprints. Each
+//! sheet keeps, per column, an upper horizon (everything above is free) and an inner horizon (the
+//! largest known free gap below it). Charts go largest first to the position that keeps the upper
+//! horizon lowest, or into a gap where they waste the least area; every allowed quarter turn is
+//! tried; with fewer than 100 charts seeded shuffled orders are tried too and the densest kept.
+//!
+//! Speed: the column profiles of every allowed turn are computed once per item, before any trial;
+//! a trial only reads them. The scan over positions stops early on the column that last proved a
+//! position worse than the best so far, which skips most positions after one or two reads.
+
+use scanatlas_core::plugin::{
+    PackItem, PackOutput, Packer, PackerError, ParamInfo, ParamValue, Params, Placement,
+    PluginError, PluginInfo, PluginKind, Registry, fits_sheet, get_bool, get_u64, oversized_sheet,
+};
+
+use super::{SplitMix64, used_area};
+
+/// The registered name of this packer.
+pub const NAME: &str = "horizon";
+
+/// The packer with its parameters.
+#[derive(Clone, Debug)]
+pub struct HorizonPacker {
+    /// Seed of the shuffled orders.
+    pub seed: u64,
+    /// Shuffled orders are tried only when there are fewer items than this.
+    pub shuffle_below: usize,
+    /// Upper bound of shuffled orders (the reference tries 5·K).
+    pub max_shuffles: usize,
+    /// Start each sheet no wider than a square holding the remaining items needs, so a small
+    /// atlas trims to a square instead of a strip; it grows by 10% steps when an item does not
+    /// fit.
+    pub square: bool,
+}
+
+impl Default for HorizonPacker {
+    fn default() -> Self {
+        Self { seed: 0, shuffle_below: 100, max_shuffles: 100, square: true }
+    }
+}
+
+/// Packing density assumed when sizing a sheet's first width (see `square`).
+const ASSUMED_DENSITY: f64 = 0.7;
+
+/// One allowed turn of one item, as the horizons see it: for each non-empty column of the turned
+/// footprint its offset and the half-open extent `bottom..top` of its cells.
+#[derive(Clone, Debug)]
+struct Profile {
+    turn: u8,
+    width: u32,
+    height: u32,
+    /// `(dx, bottom, top)` per non-empty column.
+    cols: Vec<(u32, u32, u32)>,
+    /// The largest `top − bottom`, the least gap height an inner placement needs.
+    tallest: u32,
+}
+
+fn profiles(item: &PackItem) -> Vec<Profile> {
+    let f = &item.footprint;
+    let (w, h) = (f.width(), f.height());
+    let cols = f.column_extents();
+    let rows = f.row_extents();
+    item.allowed_turns()
+        .map(|k| {
+            // Column extents of the turned raster, from the cell map of `rotated_cell`.
+            let c: Vec<(u32, u32, u32)> = match k {
+                0 => cols
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(x, e)| e.map(|(lo, hi)| (x as u32, lo, hi + 1)))
+                    .collect(),
+                1 => (0..h)
+                    .filter_map(|y| rows[y as usize].map(|(lo, hi)| (h - 1 - y, lo, hi + 1)))
+                    .collect(),
+                2 => (0..w)
+                    .filter_map(|x| {
+                        cols[x as usize].map(|(lo, hi)| (w - 1 - x, h - 1 - hi, h - lo))
+                    })
+                    .collect(),
+                _ => (0..h)
+                    .filter_map(|y| rows[y as usize].map(|(lo, hi)| (y, w - 1 - hi, w - lo)))
+                    .collect(),
+            };
+            let mut c = c;
+            c.sort_unstable_by_key(|e| e.0);
+            let (width, height) = f.rotated_dims(k);
+            let tallest = c.iter().map(|&(_, b, t)| t - b).max().unwrap_or(0);
+            Profile { turn: k, width, height, cols: c, tallest }
+        })
+        .collect()
+}
+
+/// The per-column state of one sheet.
+#[derive(Clone, Debug)]
+struct Sheet {
+    /// Columns `0..width_limit` and rows `0..height_limit` may be used; at most the sheet size.
+    width_limit: u32,
+    height_limit: u32,
+    /// First free row above everything placed, per column.
+    horizon: Vec<u32>,
+    /// The inner horizon: a free gap `gap_lo..gap_hi` below the horizon, per column.
+    gap_lo: Vec<u32>,
+    gap_hi: Vec<u32>,
+    /// The lowest horizon and the tallest gap, for rejecting hopeless items at once.
+    min_horizon: u32,
+    max_gap: u32,
+}
+
+impl Sheet {
+    fn new(width: u32, width_limit: u32, height_limit: u32) -> Self {
+        let n = width as usize;
+        Self {
+            width_limit,
+            height_limit,
+            horizon: vec![0; n],
+            gap_lo: vec![0; n],
+            gap_hi: vec![0; n],
+            min_horizon: 0,
+            max_gap: 0,
+        }
+    }
+
+    /// Grows the usable area by 10% per axis (at least one cell), up to the sheet size `(sw,
+    /// sh)`; new columns are empty. False when it already is the full sheet.
+    fn grow(&mut self, sw: u32, sh: u32) -> bool {
+        if self.width_limit >= sw && self.height_limit >= sh {
+            return false;
+        }
+        let step = |v: u32, max: u32| {
+            ((u64::from(v) * 11).div_ceil(10).max(u64::from(v) + 1)).min(u64::from(max)) as u32
+        };
+        self.width_limit = step(self.width_limit, sw).min(self.horizon.len() as u32);
+        self.height_limit = step(self.height_limit, sh);
+        self.min_horizon =
+            self.horizon[..self.width_limit as usize].iter().copied().min().unwrap_or(0);
+        true
+    }
+
+    /// The lowest upper-horizon position `(top, x, y)` of profile `p`, if any fits under
+    /// `height`. Ties go to the smallest `x`.
+    fn best_outer(&self, p: &Profile, height: u32) -> Option<(u32, u32, u32)> {
+        if p.width > self.width_limit || p.height > height - self.min_horizon.min(height) {
+            return None;
+        }
+        if p.cols.is_empty() {
+            // An empty footprint takes no cells: the corner is as good as any position.
+            return Some((p.height, 0, 0));
+        }
+        let h = &self.horizon;
+        let mut best_top = height + 1;
+        let mut best = None;
+        // The column that last showed a position to be no better than the best: checked first.
+        let mut witness = 0usize;
+        for x in 0..=(self.width_limit - p.width) {
+            let (dx, b, _) = p.cols[witness];
+            let y_w = h[(x + dx) as usize].saturating_sub(b);
+            if y_w + p.height >= best_top {
+                continue;
+            }
+            let mut y = y_w;
+            let mut worse = false;
+            for (i, &(dx, b, _)) in p.cols.iter().enumerate() {
+                let v = h[(x + dx) as usize].saturating_sub(b);
+                if v > y {
+                    y = v;
+                    if y + p.height >= best_top {
+                        witness = i;
+                        worse = true;
+                        break;
+                    }
+                }
+            }
+            if !worse {
+                best_top = y + p.height;
+                best = Some((best_top, x, y));
+            }
+        }
+        best
+    }
+
+    /// The inner-horizon position `(waste, x, y)` of profile `p` that wastes the least gap area
+    /// below it, with every column inside its column's gap. Ties go to the smallest `x`.
+    fn best_inner(&self, p: &Profile) -> Option<(u64, u32, u32)> {
+        if p.width > self.width_limit || p.tallest > self.max_gap || p.cols.is_empty() {
+            return None;
+        }
+        let (lo, hi) = (&self.gap_lo, &self.gap_hi);
+        let mut best: Option<(u64, u32, u32)> = None;
+        let mut witness = 0usize;
+        'x: for x in 0..=(self.width_limit - p.width) {
+            let fits = |&(dx, b, t): &(u32, u32, u32)| {
+                let c = (x + dx) as usize;
+                hi[c] - lo[c] >= t - b
+            };
+            if !fits(&p.cols[witness]) {
+                continue;
+            }
+            let mut y = 0;
+            for (i, col) in p.cols.iter().enumerate() {
+                if !fits(col) {
+                    witness = i;
+                    continue 'x;
+                }
+                y = y.max(lo[(x + col.0) as usize].saturating_sub(col.1));
+            }
+            let mut waste = 0u64;
+            for (i, &(dx, b, t)) in p.cols.iter().enumerate() {
+                let c = (x + dx) as usize;
+                if y + t > hi[c] {
+                    witness = i;
+                    continue 'x;
+                }
+                waste += u64::from(y + b - lo[c]);
+            }
+            if best.is_none_or(|(w, _, _)| waste < w) {
+                best = Some((waste, x, y));
+            }
+        }
+        best
+    }
+
+    /// Records profile `p` at `(x, y)` and refreshes the summary bounds.
+    fn place(&mut self, p: &Profile, x: u32, y: u32) {
+        for &(dx, b, t) in &p.cols {
+            let c = (x + dx) as usize;
+            let (yb, yt) = (y + b, y + t);
+            if yb >= self.horizon[c] {
+                // On top: the space between the old horizon and the chart is a new gap, kept if
+                // it is larger than the recorded one.
+                let old = self.horizon[c];
+                if yb - old > self.gap_hi[c] - self.gap_lo[c] {
+                    self.gap_lo[c] = old;
+                    self.gap_hi[c] = yb;
+                }
+                self.horizon[c] = yt;
+            } else {
+                // Inside the gap: keep the larger remaining part.
+                let (lo, hi) = (self.gap_lo[c], self.gap_hi[c]);
+                if yb - lo >= hi - yt {
+                    self.gap_hi[c] = yb;
+                } else {
+                    self.gap_lo[c] = yt;
+                }
+            }
+        }
+        let used = &self.horizon[..self.width_limit as usize];
+        self.min_horizon = used.iter().copied().min().unwrap_or(0);
+        self.max_gap = self.gap_lo.iter().zip(&self.gap_hi).map(|(l, h)| h - l).max().unwrap_or(0);
+    }
+
+    /// Places the item on this sheet if it fits: a gap first (it costs no height), else the lowest
+    /// upper-horizon position over all turns.
+    fn try_place(&mut self, profiles: &[Profile], height: u32) -> Option<(u8, u32, u32)> {
+        let mut inner: Option<(u64, u32, u32, usize)> = None;
+        for (i, p) in profiles.iter().enumerate() {
+            if let Some((w, x, y)) = self.best_inner(p)
+                && inner.is_none_or(|b| w < b.0)
+            {
+                inner = Some((w, x, y, i));
+            }
+        }
+        let choice = if let Some((_, x, y, i)) = inner {
+            Some((i, x, y))
+        } else {
+            let mut outer: Option<(u32, u32, u32, usize)> = None;
+            for (i, p) in profiles.iter().enumerate() {
+                if let Some((top, x, y)) = self.best_outer(p, height)
+                    && outer.is_none_or(|b| top < b.0)
+                {
+                    outer = Some((top, x, y, i));
+                }
+            }
+            outer.map(|(_, x, y, i)| (i, x, y))
+        };
+        let (i, x, y) = choice?;
+        self.place(&profiles[i], x, y);
+        Some((profiles[i].turn, x, y))
+    }
+}
+
+impl HorizonPacker {
+    pub fn from_params(params: &Params) -> Result<Self, PluginError> {
+        let info = info();
+        Ok(Self {
+            seed: get_u64(params, &info, "seed", 0..=u64::from(u32::MAX))?,
+            shuffle_below: get_u64(params, &info, "shuffle-below", 0..=100_000)? as usize,
+            max_shuffles: get_u64(params, &info, "max-shuffles", 0..=100_000)? as usize,
+            square: get_bool(params, &info, "square")?,
+        })
+    }
+
+    /// One greedy pass over the items in `order` (oversized items excluded); returns the number
+    /// of sheets used.
+    fn trial(
+        &self,
+        prepared: &[Vec<Profile>],
+        areas: &[u64],
+        order: &[u32],
+        max_sheet: (u32, u32),
+        placements: &mut [Placement],
+    ) -> Result<usize, PackerError> {
+        let mut sheets: Vec<Sheet> = Vec::new();
+        let mut remaining: u64 = order.iter().map(|&i| areas[i as usize]).sum();
+        for &item in order {
+            let profs = &prepared[item as usize];
+            let (s, (turn, x, y)) =
+                self.place_item(&mut sheets, profs, remaining, max_sheet).ok_or_else(|| {
+                    PackerError::Failed(format!("item {item} does not fit an empty sheet"))
+                })?;
+            placements[item as usize] = Placement { sheet: s as u32, quarter_turns: turn, x, y };
+            remaining -= areas[item as usize];
+        }
+        Ok(sheets.len())
+    }
+
+    /// First fit over the open sheets, the last one growing by 10% steps (as the reference grows
+    /// its containers) until it reaches the full sheet size; then a new sheet. `None` only when
+    /// the item fits no empty sheet, which the caller has ruled out.
+    fn place_item(
+        &self,
+        sheets: &mut Vec<Sheet>,
+        profs: &[Profile],
+        remaining: u64,
+        (sw, sh): (u32, u32),
+    ) -> Option<(usize, (u8, u32, u32))> {
+        let n = sheets.len();
+        for (s, sheet) in sheets.iter_mut().enumerate() {
+            loop {
+                if let Some(p) = sheet.try_place(profs, sheet.height_limit) {
+                    return Some((s, p));
+                }
+                if s + 1 < n || !sheet.grow(sw, sh) {
+                    break;
+                }
+            }
+        }
+        let (w0, h0) = if self.square {
+            // A square that holds the remaining items at the assumed density, but no smaller
+            // than this item needs.
+            let side =
+                ((remaining as f64) / ASSUMED_DENSITY).sqrt().ceil().min(f64::from(u32::MAX));
+            let side = side as u32;
+            let w = profs.iter().map(|p| p.width.max(side)).min().unwrap_or(side);
+            let h = profs.iter().map(|p| p.height.max(side)).min().unwrap_or(side);
+            (w.min(sw), h.min(sh))
+        } else {
+            (sw, sh)
+        };
+        let mut sheet = Sheet::new(sw, w0, h0);
+        let placed = loop {
+            if let Some(p) = sheet.try_place(profs, sheet.height_limit) {
+                break Some(p);
+            }
+            if !sheet.grow(sw, sh) {
+                break None;
+            }
+        };
+        sheets.push(sheet);
+        placed.map(|p| (n, p))
+    }
+}
+
+impl Packer for HorizonPacker {
+    fn pack(&self, items: &[PackItem], max_sheet: (u32, u32)) -> Result<PackOutput, PackerError> {
+        if max_sheet.0 == 0 || max_sheet.1 == 0 {
+            return Err(PackerError::EmptySheet(max_sheet.0, max_sheet.1));
+        }
+        let n = items.len();
+        let areas: Vec<u64> = items.iter().map(|i| i.footprint.count()).collect();
+        let (fitting, oversized): (Vec<u32>, Vec<u32>) =
+            (0..n as u32).partition(|&i| fits_sheet(&items[i as usize], max_sheet));
+        // Only the items that fit need profiles; oversized ones get an empty list.
+        let prepared: Vec<Vec<Profile>> = items
+            .iter()
+            .map(|it| if fits_sheet(it, max_sheet) { profiles(it) } else { Vec::new() })
+            .collect();
+        // Largest first; ties by index, so the order is a pure function of the input.
+        let mut order = fitting;
+        order.sort_by_key(|&i| (std::cmp::Reverse(areas[i as usize]), i));
+
+        let blank = Placement { sheet: 0, quarter_turns: 0, x: 0, y: 0 };
+        let mut best = vec![blank; n];
+        let mut best_sheets = self.trial(&prepared, &areas, &order, max_sheet, &mut best)?;
+        let score = |placements: &[Placement], sheets: usize| {
+            (sheets, used_area(items, placements, &order, sheets))
+        };
+        if order.len() > 1 && order.len() < self.shuffle_below {
+            let largest = areas[order[0] as usize];
+            let big = order.iter().filter(|&&i| 2 * areas[i as usize] >= largest).count();
+            let k = order.len().min(5).max(big);
+            let tries = (5 * k).min(self.max_shuffles);
+            let mut best_score = score(&best, best_sheets);
+            let mut rng = SplitMix64::new(self.seed);
+            let mut trial = order.clone();
+            let mut cand = vec![blank; n];
+            for _ in 0..tries {
+                // Cumulative shuffles of the first K, as the reference does, but seeded.
+                rng.shuffle(&mut trial[..k]);
+                let sheets = self.trial(&prepared, &areas, &trial, max_sheet, &mut cand)?;
+                let s = score(&cand, sheets);
+                if s < best_score {
+                    best_score = s;
+                    best.copy_from_slice(&cand);
+                    best_sheets = sheets;
+                }
+            }
+        }
+        let mut sheets = vec![max_sheet; best_sheets];
+        for &i in &oversized {
+            let (turn, size) = oversized_sheet(&items[i as usize], max_sheet);
+            best[i as usize] =
+                Placement { sheet: sheets.len() as u32, quarter_turns: turn, x: 0, y: 0 };
+            sheets.push(size);
+        }
+        Ok(PackOutput { placements: best, sheets, oversized })
+    }
+}
+
+fn info() -> PluginInfo {
+    PluginInfo {
+        kind: PluginKind::Packer,
+        name: NAME,
+        summary: "upper and inner horizons on exact footprints, largest first, seeded shuffles \
+                  below 100 charts (paper §4.5)",
+        params: vec![
+            ParamInfo {
+                name: "seed",
+                default: ParamValue::Int(0),
+                help: "seed of the shuffled orders",
+            },
+            ParamInfo {
+                name: "shuffle-below",
+                default: ParamValue::Int(100),
+                help: "try shuffled orders only with fewer items than this",
+            },
+            ParamInfo {
+                name: "max-shuffles",
+                default: ParamValue::Int(100),
+                help: "at most this many shuffled orders (the reference tries 5·K)",
+            },
+            ParamInfo {
+                name: "square",
+                default: ParamValue::Bool(true),
+                help: "start sheets about as wide as a square for the remaining items needs",
+            },
+        ],
+    }
+}
+
+/// Registers `horizon`.
+pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
+    registry.register_packer(info(), |params| Ok(Box::new(HorizonPacker::from_params(params)?)))
+}

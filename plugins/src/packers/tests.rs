@@ -1,0 +1,193 @@
+//! Seeded randomized and targeted tests of the built-in packers: every answer passes the exact
+//! checker of `scanatlas_core::plugin::check_packing` (no overlap, inside the sheet, allowed
+//! turns), answers are deterministic, sheets overflow into new ones and oversized items get their
+//! own sheet.
+
+use scanatlas_core::plugin::{
+    ALL_ROTATIONS, Footprint, PackItem, PackOutput, Packer, Params, Registry, check_packing,
+};
+
+use super::{HorizonPacker, SkylinePacker, SplitMix64};
+
+/// A random blob: a few overlapping rectangles inside `w × h`, so shapes are irregular (L, T,
+/// U shapes with concavities the horizons must respect).
+fn blob(rng: &mut SplitMix64, w: u32, h: u32) -> Footprint {
+    let mut f = Footprint::new(w, h).unwrap();
+    // One rectangle touches every side so the raster has no empty border.
+    f.set_span(0, 0, w);
+    for y in 0..h {
+        f.set_span(y, 0, 1);
+    }
+    f.set_span(h - 1, w - 1, w);
+    for y in 0..h {
+        f.set_span(y, w - 1, w);
+    }
+    for _ in 0..rng.below(4) {
+        let x0 = rng.below(w as usize) as u32;
+        let y0 = rng.below(h as usize) as u32;
+        let x1 = x0 + 1 + rng.below((w - x0) as usize) as u32;
+        let y1 = y0 + 1 + rng.below((h - y0) as usize) as u32;
+        for y in y0..y1 {
+            f.set_span(y, x0, x1);
+        }
+    }
+    f
+}
+
+fn random_items(seed: u64, n: usize, max_side: u32) -> Vec<PackItem> {
+    let mut rng = SplitMix64::new(seed);
+    (0..n)
+        .map(|_| {
+            let w = 1 + rng.below(max_side as usize) as u32;
+            let h = 1 + rng.below(max_side as usize) as u32;
+            let rotations = match rng.below(3) {
+                0 => 1,
+                1 => 0b0101,
+                _ => ALL_ROTATIONS,
+            };
+            PackItem { footprint: blob(&mut rng, w, h), rotations }
+        })
+        .collect()
+}
+
+fn packers() -> Vec<(&'static str, Box<dyn Packer>)> {
+    vec![
+        ("horizon", Box::new(HorizonPacker::default())),
+        ("horizon-wide", Box::new(HorizonPacker { square: false, ..HorizonPacker::default() })),
+        ("skyline", Box::new(SkylinePacker)),
+    ]
+}
+
+fn run(p: &dyn Packer, items: &[PackItem], sheet: (u32, u32)) -> PackOutput {
+    let out = p.pack(items, sheet).unwrap();
+    check_packing(items, sheet, &out).unwrap();
+    out
+}
+
+#[test]
+fn random_instances_never_overlap_and_are_deterministic() {
+    for seed in 0..40u64 {
+        let n = 1 + (seed as usize * 7) % 60;
+        let items = random_items(seed, n, 1 + (seed as u32 % 5) * 10);
+        let sheet = (40 + (seed as u32 % 3) * 30, 50 + (seed as u32 % 4) * 20);
+        for (name, p) in packers() {
+            let a = run(p.as_ref(), &items, sheet);
+            let b = run(p.as_ref(), &items, sheet);
+            assert_eq!(a, b, "{name} seed {seed}");
+        }
+    }
+}
+
+#[test]
+fn overflow_opens_sheets_and_oversized_items_get_their_own() {
+    // 30 squares of 10×10 on 32×32 sheets: at most 9 per sheet.
+    let mut items: Vec<PackItem> = (0..30)
+        .map(|_| PackItem { footprint: Footprint::filled(10, 10).unwrap(), rotations: 1 })
+        .collect();
+    // 50×20 fits no 32×32 sheet in any turn, and 40×20 may not turn at all: both are oversized.
+    items
+        .push(PackItem { footprint: Footprint::filled(50, 20).unwrap(), rotations: ALL_ROTATIONS });
+    items.push(PackItem { footprint: Footprint::filled(40, 20).unwrap(), rotations: 1 });
+    for (name, p) in packers() {
+        let out = run(p.as_ref(), &items, (32, 32));
+        assert_eq!(out.oversized, vec![30, 31], "{name}");
+        let s30 = out.placements[30].sheet as usize;
+        assert!(
+            out.sheets[s30] == (50, 20) || out.sheets[s30] == (20, 50),
+            "{name}: {:?}",
+            out.sheets[s30]
+        );
+        assert_eq!(out.sheets[out.placements[31].sheet as usize], (40, 20));
+        let normal = out.sheets.len() - 2;
+        assert!((4..=5).contains(&normal), "{name}: {normal} sheets");
+    }
+}
+
+#[test]
+fn horizon_fills_the_gap_under_an_overhang() {
+    // A wide "table": a 30×4 top on two 2×10 legs, open below; then a 20×7 block. The block fits
+    // between the legs (gap 26 wide, 10 high) and must go there instead of on top.
+    let mut table = Footprint::new(30, 14).unwrap();
+    for y in 0..14 {
+        table.set_span(y, 0, 2);
+        table.set_span(y, 28, 30);
+    }
+    for y in 10..14 {
+        table.set_span(y, 0, 30);
+    }
+    let items = vec![
+        PackItem { footprint: table, rotations: 1 },
+        PackItem { footprint: Footprint::filled(20, 7).unwrap(), rotations: 1 },
+    ];
+    // The table is placed first (largest); the block sits under it.
+    let out = run(&HorizonPacker { square: false, ..HorizonPacker::default() }, &items, (30, 40));
+    assert_eq!(out.sheets.len(), 1);
+    assert!(out.placements[1].y < 10, "{:?}", out.placements);
+}
+
+#[test]
+fn horizon_is_at_least_as_dense_as_skyline_on_irregular_shapes() {
+    let items = random_items(99, 300, 24);
+    let a = run(&HorizonPacker::default(), &items, (256, 256));
+    let b = run(&SkylinePacker, &items, (256, 256));
+    let all: Vec<u32> = (0..items.len() as u32).collect();
+    let area = |o: &PackOutput| super::used_area(&items, &o.placements, &all, o.sheets.len());
+    assert!(area(&a) <= area(&b), "horizon {} vs skyline {}", area(&a), area(&b));
+}
+
+#[test]
+fn ten_thousand_items_pack_quickly() {
+    let items = random_items(7, 10_000, 40);
+    let t = std::time::Instant::now();
+    let out = run(&HorizonPacker::default(), &items, (4096, 4096));
+    let secs = t.elapsed().as_secs_f64();
+    // Generous bound: the machine is shared; a quadratic scan would take minutes.
+    assert!(secs < 60.0, "{secs} s");
+    assert!(!out.sheets.is_empty());
+}
+
+#[test]
+fn registered_by_name_with_parameters() {
+    let mut r = Registry::default();
+    crate::register_builtin(&mut r);
+    let mut p = Params::new();
+    p.insert("seed".into(), scanatlas_core::plugin::ParamValue::Int(3));
+    assert!(r.packer("horizon", &p).is_ok());
+    assert!(r.packer("skyline", &Params::new()).is_ok());
+    assert!(r.packer("skyline", &p).is_err(), "skyline has no seed");
+    assert!(r.packer("maxrects", &Params::new()).is_err());
+}
+
+/// The scale of a real defragmented scan: 10k charts of mixed sizes on 8192² sheets. Ignored by
+/// default (it takes seconds); run with `--ignored` to time it.
+#[test]
+#[ignore]
+fn ten_thousand_mixed_charts_on_large_sheets() {
+    let mut items = random_items(11, 9_900, 60);
+    items.extend(random_items(12, 100, 600));
+    if std::env::var_os("PACK_RECTS").is_some() {
+        // Solid boxes instead of U-shaped blobs, closer to dilated real charts.
+        for it in &mut items {
+            it.footprint = Footprint::filled(it.footprint.width(), it.footprint.height()).unwrap();
+        }
+    }
+    let cells: u64 = items.iter().map(|i| i.footprint.count()).sum();
+    let boxes: u64 = items
+        .iter()
+        .map(|i| u64::from(i.footprint.width()) * u64::from(i.footprint.height()))
+        .sum();
+    let all: Vec<u32> = (0..items.len() as u32).collect();
+    for (name, p) in packers() {
+        let t = std::time::Instant::now();
+        let out = run(p.as_ref(), &items, (8192, 8192));
+        let used = super::used_area(&items, &out.placements, &all, out.sheets.len());
+        eprintln!(
+            "{name}: {} items in {:.2} s, {} sheets, cells/used {:.3}, boxes/used {:.3}",
+            items.len(),
+            t.elapsed().as_secs_f64(),
+            out.sheets.len(),
+            cells as f64 / used as f64,
+            boxes as f64 / used as f64
+        );
+    }
+}
