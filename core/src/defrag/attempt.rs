@@ -292,9 +292,6 @@ impl Engine<'_> {
             let before = self.face_area2[f as usize];
             let after = signed_area2(self.tri(f as usize));
             if before >= DEGENERATE_AREA2 && !(after >= DEGENERATE_AREA2) {
-                if std::env::var_os("SCANATLAS_DEBUG").is_some() {
-                    eprintln!("fold f={f} before={before} after={after} tri={:?} pre={:?}", self.tri(f as usize), self.tri_before(f as usize));
-                }
                 return Verdict::Reject(RejectReason::Fold);
             }
         }
@@ -323,13 +320,6 @@ impl Engine<'_> {
                 let same_chart = cs == self.t.face_chart[f];
                 if same_chart && triangles_overlap(self.tri_before(f), self.tri_before(s)) {
                     continue;
-                }
-                if std::env::var_os("SCANATLAS_DEBUG").is_some() {
-                    eprintln!(
-                        "overlap f={f} s={s} s_opt={} same={} chart_f={} chart_s={} a={} b={} tf={:?} ts={:?} bf={:?} bs={:?}",
-                        self.face_opt[s], same_chart, self.t.face_chart[f], cs, g.a, g.b,
-                        tri, self.tri(s), self.tri_before(f), self.tri_before(s)
-                    );
                 }
                 self.offenders.push(f as u32);
                 self.offenders.push(s as u32);

@@ -15,7 +15,7 @@ pub fn merged_model(model: &Model, t: &Topology) -> Model {
     let mut new_id = vec![u32::MAX; t.uv_pos.len()];
     for (f, face) in out.faces.iter_mut().enumerate() {
         let Some(old) = face.uv else { continue };
-        if t.face_flags[f].is_frozen() {
+        if t.face_flags[f].is_isolated() {
             let ids = old.map(|u| {
                 uvs.push(model.uvs[u.idx()]);
                 UvId::from_usize(uvs.len() - 1)

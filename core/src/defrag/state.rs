@@ -171,7 +171,7 @@ impl<'t> Engine<'t> {
             face_energy[f] = w * isometric_energy(orig, cur);
             energy_num += face_energy[f];
             energy_den += w;
-            if !t.face_flags[f].is_frozen() {
+            if !t.face_flags[f].is_isolated() {
                 chart_faces[t.face_chart[f].idx()].push(f as u32);
                 for p in cur {
                     extent = [

@@ -15,6 +15,7 @@ pub use energy::{
 pub use fit::{Rigid2, rigid_fit};
 pub use grid::GridTransform;
 pub use predicates::{
-    orient2d, orientation, point_in_triangle_strict, segments_cross, triangles_overlap,
+    orient2d, orientation, point_in_triangle_strict, segments_cross, triangle_intersection_area,
+    triangles_overlap,
 };
 pub use svd::{Mat2, closest_rotation, singular_values, svd2, svd2_signed};

@@ -129,6 +129,51 @@ fn separates(t: Tri2, s: f64, other: Tri2) -> bool {
     })
 }
 
+/// The area of the intersection of two triangles (either orientation), by clipping one against
+/// the other's three half-planes in floating point (Sutherland–Hodgman, no allocation). Used to
+/// measure how much two overlapping triangles overlap; `triangles_overlap` is the exact test.
+pub fn triangle_intersection_area(t1: Tri2, t2: Tri2) -> f64 {
+    let s1 = orient2d(t1[0], t1[1], t1[2]);
+    if s1 == 0.0 || orient2d(t2[0], t2[1], t2[2]) == 0.0 {
+        return 0.0;
+    }
+    let sign = s1.signum();
+    // A triangle clipped by three half-planes has at most 6 vertices; 9 leaves room.
+    let mut poly = [[0.0f64; 2]; 9];
+    let mut n = 3;
+    poly[..3].copy_from_slice(&t2);
+    let mut next = [[0.0f64; 2]; 9];
+    for i in 0..3 {
+        let (a, b) = (t1[i], t1[(i + 1) % 3]);
+        let side = |p: [f64; 2]| sign * ((b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]));
+        let mut m = 0;
+        for k in 0..n {
+            let (p, q) = (poly[k], poly[(k + 1) % n]);
+            let (sp, sq) = (side(p), side(q));
+            if sp >= 0.0 {
+                next[m] = p;
+                m += 1;
+            }
+            if (sp >= 0.0) != (sq >= 0.0) && m < next.len() {
+                let t = sp / (sp - sq);
+                next[m] = [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])];
+                m += 1;
+            }
+        }
+        n = m.min(next.len());
+        poly[..n].copy_from_slice(&next[..n]);
+        if n < 3 {
+            return 0.0;
+        }
+    }
+    let mut area2 = 0.0;
+    for k in 0..n {
+        let (p, q) = (poly[k], poly[(k + 1) % n]);
+        area2 += p[0] * q[1] - p[1] * q[0];
+    }
+    0.5 * area2.abs()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -9,7 +9,8 @@ use crate::index::SheetId;
 /// A chart and the quantities the scorer reads from it (reference `FaceGroup::UpdateCache`).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Chart {
-    /// Frozen charts are made of frozen faces only and take part in no operation.
+    /// Frozen charts are made of isolated faces only (see `FrozenReasons::is_isolated`) and take
+    /// part in no operation.
     pub frozen: bool,
     /// The sheet of its faces (a UV vertex includes the sheet, so a chart never mixes sheets).
     pub sheet: Option<SheetId>,
@@ -77,7 +78,7 @@ pub(crate) struct Labels {
 }
 
 /// Labels charts: mergeable faces join across two-sided edges whose sides share both UV
-/// vertices; frozen faces join only other frozen faces, across any edge whose sides share both
+/// vertices; isolated faces join only other isolated faces, across any edge whose sides share both
 /// UV vertices. Chart ids follow the order of each chart's first face.
 pub(crate) fn label_charts(
     adj: &Adjacency,
@@ -104,7 +105,7 @@ pub(crate) fn label_charts(
             let [[a0, b0], [a1, b1]] = pair_corners(corner_pos, a, b);
             if corner_weld[a0] == corner_weld[b0] && corner_weld[a1] == corner_weld[b1] {
                 components.union(fa as u32, fb as u32);
-                if face_flags[fa].is_frozen() == face_flags[fb].is_frozen() {
+                if face_flags[fa].is_isolated() == face_flags[fb].is_isolated() {
                     charts.union(fa as u32, fb as u32);
                 }
             }
@@ -283,7 +284,7 @@ pub(crate) fn chart_caches(
     ];
     for f in 0..nf {
         let ch = &mut charts[face_chart[f].idx()];
-        ch.frozen = face_flags[f].is_frozen();
+        ch.frozen = face_flags[f].is_isolated();
         ch.sheet = (face_sheet[f] != u32::MAX).then_some(SheetId(face_sheet[f]));
         ch.n_faces += 1;
         let v = face_vertices[f];

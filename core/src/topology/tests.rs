@@ -265,7 +265,8 @@ fn non_manifold_edge_is_never_dissolved() {
     assert!(t.he_link.iter().all(|l| l.is_none()));
     let nm = t.edges.iter().position(|e| e.is_non_manifold()).expect("one non-manifold edge");
     assert_eq!(t.sides_of_edge(EdgeId::from_usize(nm)).len(), 3);
-    assert!(t.charts[t.face_chart[0].idx()].frozen && !t.charts[t.face_chart[3].idx()].frozen);
+    // Faces on a non-manifold edge are not isolated: they form ordinary charts, just never merged.
+    assert!(!t.charts[t.face_chart[0].idx()].frozen && !t.charts[t.face_chart[3].idx()].frozen);
 }
 
 #[test]
@@ -366,7 +367,7 @@ fn cylinder_cut_along_one_line_is_one_chart_with_one_intra_op() {
 }
 
 #[test]
-fn zero_area_and_uvless_faces_are_frozen_in_charts_of_their_own() {
+fn zero_area_faces_ride_with_their_chart_and_uvless_faces_are_isolated() {
     let mut m = model(
         vec![
             [0.0, 0.0, 0.0],
@@ -397,15 +398,17 @@ fn zero_area_and_uvless_faces_are_frozen_in_charts_of_their_own() {
     assert_eq!(t.face_flags[3].0, FrozenReasons::NO_UV);
     assert!(t.face_flags[4].has(FrozenReasons::NO_SHEET));
     assert_eq!(t.orig_uv[13], [1.0, 0.9], "faces without a sheet keep scale 1");
-    // Faces 1 and 2 share a UV edge with face 0 (one evaluator component), yet each frozen face
-    // is a chart of its own.
+    // Faces 1 and 2 share a UV edge with face 0: one chart, as the evaluator counts it; the face
+    // without UVs and the face without a sheet are isolated in charts of their own.
     assert_eq!(t.report.uv_components, 3);
-    assert_eq!(t.report.charts, 5);
-    assert_ne!(t.face_chart[0], t.face_chart[1]);
-    assert!(t.charts.iter().filter(|c| c.frozen).count() == 4);
+    assert_eq!(t.report.charts, 3);
+    assert_eq!(t.face_chart[0], t.face_chart[1]);
+    assert_eq!(t.face_chart[0], t.face_chart[2]);
+    assert!(!t.charts[t.face_chart[0].idx()].frozen);
+    assert!(t.charts.iter().filter(|c| c.frozen).count() == 2);
     assert_eq!((t.report.seams, t.report.inter_ops, t.report.intra_ops), (0, 0, 0));
-    // Edges 0-2 and 0-1 had the same UVs on both sides; 1-4, 1-2 and 1-5 did not.
-    assert_eq!((t.report.frozen_borders, t.report.frozen_seams), (2, 3));
+    // Edges 0-2 and 0-1 are UV twins now; 1-4, 1-2 and 1-5 have different UVs on their sides.
+    assert_eq!((t.report.frozen_borders, t.report.frozen_seams), (0, 3));
 }
 
 #[test]
