@@ -22,8 +22,13 @@ pub struct Analysis {
     pub faces: usize,
     /// Faces with finite UVs on a sheet-less or sheeted material (the others are ignored).
     pub uv_faces: usize,
-    /// Edge-connected charts: faces sharing a welded 3D edge whose two UV endpoints are equal.
+    /// Edge-connected charts: faces sharing a welded 3D edge whose two UV endpoints are equal,
+    /// UV vertices keyed by sheet as in the evaluator.
     pub charts: usize,
+    /// The same with UV vertices keyed without the sheet. The merge engine joins charts of
+    /// different sheets (packing will put them on one), and a merge-only output keeps each face
+    /// on its sheet, so such a chart is one chart here and several in `charts`.
+    pub charts_across_sheets: usize,
     /// Half-edges on a chart border (their UV edge is used by no other face).
     pub border_half_edges: usize,
     /// Border half-edges whose 3D edge is shared by another face: the seams a merge may close.
@@ -32,6 +37,8 @@ pub struct Analysis {
     pub border_length: f64,
     /// Faces whose UV area sign differs from their chart's total signed area.
     pub flipped: usize,
+    /// Faces whose UV area sign differs from their cross-sheet chart's total signed area.
+    pub flipped_across_sheets: usize,
     /// Faces with |UV area| < [`DEGENERATE_AREA`].
     pub degenerate: usize,
 }
@@ -44,11 +51,12 @@ pub struct Check {
     /// Faces whose positions (bitwise) or sheet differ between input and output, or that exist
     /// in only one of them.
     pub changed_faces: usize,
-    /// Faces flipped or degenerate in the output but neither in the input.
+    /// Faces flipped (against either kind of chart) or degenerate in the output but not in the
+    /// input.
     pub new_flips: usize,
     pub new_flip_faces: Vec<u32>,
-    /// Pairs of faces of one output chart whose UV interiors overlap, unless they were in one
-    /// input chart and overlapped there already.
+    /// Pairs of faces of one output chart (joined across sheets, in texel space) whose UV
+    /// interiors overlap, unless they were in one input chart and overlapped there already.
     pub new_overlaps: usize,
     pub new_overlap_pairs: Vec<[u32; 2]>,
     /// Pairs of one output chart that overlap and overlapped within one input chart already.
@@ -69,9 +77,10 @@ impl Check {
 struct Faces {
     /// Texel-space UV triangle; `None` without UVs or with non-finite ones.
     tri: Vec<Option<Tri2>>,
-    /// Chart label per face (`u32::MAX` for faces without a usable UV triangle).
+    /// Cross-sheet chart label per face (`u32::MAX` for faces without a usable UV triangle):
+    /// overlaps are looked for within these, a superset of the evaluator's charts.
     chart: Vec<u32>,
-    /// Flipped relative to the chart or degenerate.
+    /// Flipped relative to its chart (either kind) or degenerate.
     bad: Vec<bool>,
     summary: Analysis,
 }
@@ -145,60 +154,39 @@ fn analyze(m: &Model) -> Faces {
         .collect();
     drop(pos_id);
 
-    let mut tri = Vec::with_capacity(nf);
-    // UV vertex per corner: (welded position, sheet, u bits, v bits) as in the evaluator.
-    let mut uv_id: HashMap<(u32, u32, u64, u64), u32> = HashMap::with_capacity(nf * 2);
-    let mut corner_uv = vec![u32::MAX; 3 * nf];
-    for (f, face) in m.faces.iter().enumerate() {
-        let fid = scanatlas_core::FaceId::from_usize(f);
-        let uv = m.face_uvs(fid).filter(|t| t.iter().flatten().all(|x| x.is_finite()));
-        let Some(uv) = uv else {
-            tri.push(None);
-            continue;
-        };
-        let (w, h, sheet) = sheet_scale(m, f);
-        tri.push(Some(uv.map(|p| [p[0] * w, p[1] * h])));
-        for k in 0..3 {
-            let key = (welded[face.v[k].idx()], sheet, bits(uv[k][0]), bits(uv[k][1]));
-            let n = uv_id.len() as u32;
-            corner_uv[3 * f + k] = *uv_id.entry(key).or_insert(n);
-        }
-    }
-    drop(uv_id);
-
-    // Half-edges keyed by their UV endpoints; equal keys join faces into one chart. The 3D edge
-    // key tells seams (another face shares the edge in 3D) from mesh borders.
-    let mut uv_edges: Vec<(u32, u32, u32)> = Vec::with_capacity(3 * nf);
+    let tri: Vec<Option<Tri2>> = (0..nf)
+        .map(|f| {
+            let uv = m.face_uvs(scanatlas_core::FaceId::from_usize(f))?;
+            if !uv.iter().flatten().all(|x| x.is_finite()) {
+                return None;
+            }
+            let (w, h, _) = sheet_scale(m, f);
+            Some(uv.map(|p| [p[0] * w, p[1] * h]))
+        })
+        .collect();
     let mut edges3d: Vec<(u32, u32)> = Vec::with_capacity(3 * nf);
-    for (f, face) in m.faces.iter().enumerate() {
+    for face in &m.faces {
         for k in 0..3 {
             let (a, b) = (welded[face.v[k].idx()], welded[face.v[(k + 1) % 3].idx()]);
             edges3d.push((a.min(b), a.max(b)));
-            if tri[f].is_some() {
-                let (u, v) = (corner_uv[3 * f + k], corner_uv[3 * f + (k + 1) % 3]);
-                uv_edges.push((u.min(v), u.max(v), (3 * f + k) as u32));
-            }
         }
     }
     edges3d.sort_unstable();
-    uv_edges.sort_unstable();
     let shared_3d = |a: u32, b: u32| {
         let key = (a.min(b), a.max(b));
         let i = edges3d.partition_point(|e| *e < key);
         edges3d.get(i + 1) == Some(&key)
     };
 
-    let mut dsu = Dsu::new(nf);
     let mut s =
         Analysis { faces: nf, uv_faces: tri.iter().flatten().count(), ..Default::default() };
+    let (mut dsu, uv_edges) = join_charts(m, &welded, &tri, true);
     let mut i = 0;
     while i < uv_edges.len() {
-        let mut j = i + 1;
-        while j < uv_edges.len() && uv_edges[j].0 == uv_edges[i].0 && uv_edges[j].1 == uv_edges[i].1
-        {
-            dsu.union(uv_edges[i].2 / 3, uv_edges[j].2 / 3);
-            j += 1;
-        }
+        let j = i + uv_edges[i..]
+            .iter()
+            .take_while(|e| e.0 == uv_edges[i].0 && e.1 == uv_edges[i].1)
+            .count();
         if j == i + 1 {
             let he = uv_edges[i].2 as usize;
             let (f, k) = (he / 3, he % 3);
@@ -213,26 +201,16 @@ fn analyze(m: &Model) -> Faces {
         }
         i = j;
     }
-
-    // Chart labels, chart signed areas, then flips against the chart's majority sign.
-    let mut label: HashMap<u32, u32> = HashMap::new();
-    let mut chart = vec![u32::MAX; nf];
-    let mut chart_area: Vec<f64> = Vec::new();
+    drop(uv_edges);
     let area: Vec<f64> = tri.iter().map(|t| t.map_or(0.0, |t| 0.5 * twice_area(t))).collect();
-    for f in 0..nf {
-        if tri[f].is_none() {
-            continue;
-        }
-        let r = dsu.find(f as u32);
-        let n = label.len() as u32;
-        let c = *label.entry(r).or_insert(n);
-        if c as usize == chart_area.len() {
-            chart_area.push(0.0);
-        }
-        chart[f] = c;
-        chart_area[c as usize] += area[f];
-    }
+    let (chart, chart_area) = labels(&mut dsu, &tri, &area);
     s.charts = chart_area.len();
+    let (mut dsu_any, _) = join_charts(m, &welded, &tri, false);
+    let (chart_any, chart_any_area) = labels(&mut dsu_any, &tri, &area);
+    s.charts_across_sheets = chart_any_area.len();
+
+    // Flips against the chart's majority sign: the evaluator's per-sheet chart, and the chart
+    // joined across sheets, whose pieces a packer will put on one sheet.
     let mut bad = vec![false; nf];
     for f in 0..nf {
         if tri[f].is_none() {
@@ -240,13 +218,79 @@ fn analyze(m: &Model) -> Faces {
         }
         let a = area[f];
         let degenerate = a.abs() < DEGENERATE_AREA;
-        let cs = chart_area[chart[f] as usize];
-        let flipped = !degenerate && cs != 0.0 && (a > 0.0) != (cs > 0.0);
+        let against = |cs: f64| !degenerate && cs != 0.0 && (a > 0.0) != (cs > 0.0);
+        let flipped = against(chart_area[chart[f] as usize]);
+        let flipped_any = against(chart_any_area[chart_any[f] as usize]);
         s.degenerate += usize::from(degenerate);
         s.flipped += usize::from(flipped);
-        bad[f] = degenerate || flipped;
+        s.flipped_across_sheets += usize::from(flipped_any);
+        bad[f] = degenerate || flipped || flipped_any;
     }
-    Faces { tri, chart, bad, summary: s }
+    Faces { tri, chart: chart_any, bad, summary: s }
+}
+
+/// Joins faces sharing a UV edge: a welded 3D edge whose two UV endpoints are equal (and, with
+/// `with_sheet`, on the same sheet, as the evaluator keys UV vertices). Returns the union-find and
+/// the half-edges `(uv vertex, uv vertex, half-edge)` sorted by UV edge.
+fn join_charts(
+    m: &Model,
+    welded: &[u32],
+    tri: &[Option<Tri2>],
+    with_sheet: bool,
+) -> (Dsu, Vec<(u32, u32, u32)>) {
+    let nf = m.faces.len();
+    let mut uv_id: HashMap<(u32, u32, u64, u64), u32> = HashMap::with_capacity(nf * 2);
+    let mut corner_uv = vec![u32::MAX; 3 * nf];
+    for (f, face) in m.faces.iter().enumerate() {
+        if tri[f].is_none() {
+            continue;
+        }
+        let uv = m.face_uvs(scanatlas_core::FaceId::from_usize(f)).expect("a UV face");
+        let sheet = if with_sheet { sheet_scale(m, f).2 } else { 0 };
+        for k in 0..3 {
+            let key = (welded[face.v[k].idx()], sheet, bits(uv[k][0]), bits(uv[k][1]));
+            let n = uv_id.len() as u32;
+            corner_uv[3 * f + k] = *uv_id.entry(key).or_insert(n);
+        }
+    }
+    drop(uv_id);
+    let mut uv_edges: Vec<(u32, u32, u32)> = Vec::with_capacity(3 * nf);
+    for f in 0..nf {
+        if tri[f].is_some() {
+            for k in 0..3 {
+                let (u, v) = (corner_uv[3 * f + k], corner_uv[3 * f + (k + 1) % 3]);
+                uv_edges.push((u.min(v), u.max(v), (3 * f + k) as u32));
+            }
+        }
+    }
+    uv_edges.sort_unstable();
+    let mut dsu = Dsu::new(nf);
+    for w in uv_edges.windows(2) {
+        if (w[0].0, w[0].1) == (w[1].0, w[1].1) {
+            dsu.union(w[0].2 / 3, w[1].2 / 3);
+        }
+    }
+    (dsu, uv_edges)
+}
+
+/// Dense chart labels in face order and each chart's total signed UV area (texel²).
+fn labels(dsu: &mut Dsu, tri: &[Option<Tri2>], area: &[f64]) -> (Vec<u32>, Vec<f64>) {
+    let mut label: HashMap<u32, u32> = HashMap::new();
+    let mut chart = vec![u32::MAX; tri.len()];
+    let mut chart_area: Vec<f64> = Vec::new();
+    for f in 0..tri.len() {
+        if tri[f].is_none() {
+            continue;
+        }
+        let n = label.len() as u32;
+        let c = *label.entry(dsu.find(f as u32)).or_insert(n);
+        if c as usize == chart_area.len() {
+            chart_area.push(0.0);
+        }
+        chart[f] = c;
+        chart_area[c as usize] += area[f];
+    }
+    (chart, chart_area)
 }
 
 /// Pairs of faces of one chart whose UV interiors overlap, each pair once, `a < b`. A uniform
@@ -464,6 +508,32 @@ mod tests {
         flat[3] = [15.0, 15.0]; // on the diagonal: face 1 has zero area
         let c = check(&square(UV, UV), &square(UV, flat));
         assert_eq!((c.output.degenerate, c.new_flips, c.new_flip_faces.clone()), (1, 1, vec![1]));
+    }
+
+    #[test]
+    fn a_chart_split_across_sheets_is_one_chart_for_overlaps() {
+        // Face 1 on a second sheet of the same size: two evaluator charts, one cross-sheet chart,
+        // and its fold over face 0 is still found.
+        let on_two = |m: &mut Model| {
+            m.sheets.push(m.sheets[0].clone());
+            m.materials.push(Material {
+                name: "m1".into(),
+                sheet: Some(SheetId(1)),
+                extra: vec![],
+            });
+            m.faces[1].material = Some(MaterialId(1));
+        };
+        let mut input = square(UV, UV);
+        on_two(&mut input);
+        let a = analyze_model(&input);
+        assert_eq!((a.charts, a.charts_across_sheets), (2, 1));
+        let mut folded = UV;
+        folded[3] = [17.0, 13.0];
+        let mut out = square(UV, folded);
+        on_two(&mut out);
+        let c = check(&input, &out);
+        assert_eq!((c.output.flipped, c.output.flipped_across_sheets), (0, 1));
+        assert_eq!((c.new_flips, c.new_overlaps), (1, 1));
     }
 
     #[test]

@@ -62,11 +62,12 @@ fn whole_merge(shape: Shape, faces: u32) {
     let secs = t.elapsed().as_secs_f64();
     let c = check(&model, &out);
     println!(
-        "{shape} {} faces: charts {} → {} (engine {} → {}), border {:.0} → {:.0} texels, \
+        "{shape} {} faces: charts {} → {} ({} across sheets; engine {} → {}), border {:.0} → {:.0} texels, \
          distortion {:.5}, old overlaps {}, {secs:.2} s",
         model.faces.len(),
         c.input.charts,
         c.output.charts,
+        c.output.charts_across_sheets,
         report.charts_before,
         report.charts_after,
         c.input.border_length,
@@ -233,7 +234,12 @@ fn layouts() -> impl Strategy<Value = Layout> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 32, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig {
+        cases: 32,
+        // Failures are reported with their input; no regression files next to the sources.
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
 
     #[test]
     fn random_layouts_merge_without_new_flips_or_overlaps(l in layouts()) {

@@ -155,12 +155,13 @@ fn real_models_merge_without_new_flips_overlaps_or_excess_distortion() {
         let c = check(&model, &out);
         let check_s = t.elapsed().as_secs_f64();
         println!(
-            "{rel}: {} faces, charts {} → {} (engine {} → {}), border {:.0} → {:.0} texels, \
+            "{rel}: {} faces, charts {} → {} ({} across sheets; engine {} → {}), border {:.0} → {:.0} texels, \
              new flips {} {:?}, new overlaps {} {:?}, old overlaps {}, distortion {:.5} \
              (engine {:.5}); prepare {prepare_s:.1} s, merge {merge_s:.1} s, check {check_s:.1} s",
             model.faces.len(),
             c.input.charts,
             c.output.charts,
+            c.output.charts_across_sheets,
             report.charts_before,
             report.charts_after,
             c.input.border_length,
