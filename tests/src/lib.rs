@@ -1,6 +1,10 @@
 //! Shared helpers of the scanatlas integration tests: locating the real data and the independent
 //! evaluator, and comparing models face by face.
 
+pub mod check;
+
+pub use check::{Analysis, Check, analyze_model, check};
+
 use std::path::PathBuf;
 
 use scanatlas_core::Model;

@@ -1,13 +1,15 @@
-//! The real-data suite: `stats` against the independent evaluator, format round trips and texture
-//! round trips on the real photogrammetry models of `SCANATLAS_REAL_DATA`.
+//! The real-data suite: `stats` against the independent evaluator, format round trips, texture
+//! round trips and whole merges judged by the independent checker, on the real photogrammetry
+//! models of `SCANATLAS_REAL_DATA`.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::time::Instant;
 
 use scanatlas_core::io::{WriteOptions, read_model, write_model};
 use scanatlas_core::metrics::{StatsOptions, atlas_stats};
 use scanatlas_core::pipeline;
-use scanatlas_tests::{assert_same_faces, real_data};
+use scanatlas_tests::{assert_same_faces, check, real_data};
 
 const MODELS: [&str; 3] = [
     "venus-realitycapture/venus.nodraco.gltf",
@@ -121,4 +123,73 @@ fn real_textures_survive_the_tile_store_bit_exactly() {
             }
         }
     }
+}
+
+/// Prepares and merges one real model with the defaults (`paper`, `arap`) and checks the result
+/// independently. Every model is checked before any assertion, so one failing model does not hide
+/// the figures of the others.
+#[test]
+fn real_models_merge_without_new_flips_overlaps_or_excess_distortion() {
+    use scanatlas_core::defrag::{MergeOptions, merge_charts, merged_model};
+    use scanatlas_core::plugin::{Params, Registry};
+    use scanatlas_core::topology::Topology;
+    let mut reg = Registry::default();
+    scanatlas_plugins::register_builtin(&mut reg);
+    let data = real_data();
+    let mut failures = Vec::new();
+    for rel in MODELS {
+        let model = pipeline::load_model(&data.join(rel)).unwrap_or_else(|e| panic!("{rel}: {e}"));
+        let scorer = reg.scorer("paper", &Params::new()).unwrap();
+        let mut solver = reg.solver("arap", &Params::new()).unwrap();
+        let t = Instant::now();
+        let mut topo = Topology::build(&model, &pipeline::sheet_sizes(&model))
+            .unwrap_or_else(|e| panic!("{rel}: {e}"));
+        let prepare_s = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let (report, _) =
+            merge_charts(&mut topo, scorer.as_ref(), solver.as_mut(), &MergeOptions::default())
+                .unwrap();
+        let merge_s = t.elapsed().as_secs_f64();
+        let out = merged_model(&model, &topo);
+        let t = Instant::now();
+        let c = check(&model, &out);
+        let check_s = t.elapsed().as_secs_f64();
+        println!(
+            "{rel}: {} faces, charts {} → {} ({} across sheets; engine {} → {}), border {:.0} → {:.0} texels, \
+             new flips {} {:?}, new overlaps {} {:?}, old overlaps {}, distortion {:.5} \
+             (engine {:.5}); prepare {prepare_s:.1} s, merge {merge_s:.1} s, check {check_s:.1} s",
+            model.faces.len(),
+            c.input.charts,
+            c.output.charts,
+            c.output.charts_across_sheets,
+            report.charts_before,
+            report.charts_after,
+            c.input.border_length,
+            c.output.border_length,
+            c.new_flips,
+            c.new_flip_faces,
+            c.new_overlaps,
+            c.new_overlap_pairs,
+            c.old_overlaps,
+            c.distortion,
+            report.energy_after,
+        );
+        if !c.faces_kept() {
+            failures.push(format!("{rel}: {} faces changed", c.changed_faces));
+        }
+        if c.new_flips > 0 {
+            failures
+                .push(format!("{rel}: {} new flips, first {:?}", c.new_flips, c.new_flip_faces));
+        }
+        if c.new_overlaps > 0 {
+            failures.push(format!(
+                "{rel}: {} new overlaps, first {:?}",
+                c.new_overlaps, c.new_overlap_pairs
+            ));
+        }
+        if c.distortion > 0.025 {
+            failures.push(format!("{rel}: distortion {} > 0.025", c.distortion));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
