@@ -8,7 +8,11 @@
 use std::collections::HashMap;
 
 use scanatlas_core::Model;
-use scanatlas_core::geometry::{EnergySum, Tri2, triangles_overlap};
+// Overlaps below `OVERLAP_AREA_EPS` texel² are floating-point noise of rotated T-junctions, which
+// no texel centre (and so no evaluator) can see; they are not counted.
+use scanatlas_core::geometry::{
+    EnergySum, Tri2, triangles_overlap_beyond_noise as triangles_overlap,
+};
 
 /// A face whose |UV area| is below this (texel²) is degenerate, as in the evaluator.
 pub const DEGENERATE_AREA: f64 = 1e-6;

@@ -10,7 +10,7 @@ use super::grid::tri_bbox;
 use super::ops::{OpGeometry, dist};
 use super::patch::{find, union};
 use super::state::{Engine, NONE, orig_tri};
-use crate::geometry::{isometric_energy, signed_area2, triangles_overlap};
+use crate::geometry::{isometric_energy, signed_area2, triangles_overlap_beyond_noise as overlap};
 use crate::plugin::LocalSolver;
 
 /// Twice the evaluator's degenerate-area threshold (1e-6 texel²): a triangle whose doubled area
@@ -261,7 +261,7 @@ impl Engine<'_> {
                 if self.t.face_chart[s] != g.a || self.face_opt[s] {
                     continue;
                 }
-                if triangles_overlap(tri, self.tri(s)) {
+                if overlap(tri, self.tri(s)) {
                     return true;
                 }
             }
@@ -313,12 +313,12 @@ impl Engine<'_> {
                 if s == f || (cs != g.a && cs != g.b) || (self.face_opt[s] && s < f) {
                     continue;
                 }
-                if !triangles_overlap(tri, self.tri(s)) {
+                if !overlap(tri, self.tri(s)) {
                     continue;
                 }
                 // Overlaps already present in the input chart are tolerated, never new ones.
                 let same_chart = cs == self.t.face_chart[f];
-                if same_chart && triangles_overlap(self.tri_before(f), self.tri_before(s)) {
+                if same_chart && overlap(self.tri_before(f), self.tri_before(s)) {
                     continue;
                 }
                 self.offenders.push(f as u32);

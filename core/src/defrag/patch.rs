@@ -130,125 +130,113 @@ impl Engine<'_> {
         true
     }
 
-    /// Euler characteristic test per connected part: with every boundary vertex split into one
-    /// copy per boundary fan (as the reference splits non-manifold vertices), V − E + F = 2 − 2g − H
-    /// must give g = 0 and H ≥ 1: a closed part, or one with handles, cannot be flattened without
-    /// overlap. Boundary loops are walked along directed boundary half-edges, turning around each
-    /// vertex through the triangles, so loops that touch at a vertex count separately. An edge
-    /// with three triangles, or used twice in one direction (inconsistent orientation), fails.
+    /// Euler characteristic test per connected part: with every vertex split into one copy per
+    /// fan of triangles around it (as the reference splits non-manifold vertices), V − E + F =
+    /// 2 − 2g − H must give g = 0 and H ≥ 1: a closed part, or one with handles, cannot be
+    /// flattened without overlap. Everything is orientation-free (faces of inconsistent 3D
+    /// orientation are common in scans): fans are unions of corners across edges shared by two
+    /// triangles, and a boundary loop is a union of boundary edges meeting in one fan. An edge with
+    /// more than two triangles fails.
     fn patch_is_disk_like(&mut self) -> bool {
         let n = self.problem.uv.len();
-        // Directed half-edges (from, to, triangle·3 + k), sorted for lookups.
-        let mut he: Vec<(u32, u32, u32)> = Vec::with_capacity(3 * self.problem.triangles.len());
+        let nt = self.problem.triangles.len();
+        // Undirected edges (lo, hi, 3·triangle + k), sorted so that equal edges are adjacent.
+        let mut edges: Vec<(u32, u32, u32)> = Vec::with_capacity(3 * nt);
         for (t, tri) in self.problem.triangles.iter().enumerate() {
             for k in 0..3 {
                 let (a, b) = (tri[k], tri[(k + 1) % 3]);
                 if a == b {
                     return false;
                 }
-                he.push((a, b, 3 * t as u32 + k as u32));
+                edges.push((a.min(b), a.max(b), (3 * t + k) as u32));
             }
         }
-        he.sort_unstable();
-        if he.windows(2).any(|w| (w[0].0, w[0].1) == (w[1].0, w[1].1)) {
-            return false;
-        }
-        let find_he = |a: u32, b: u32| -> Option<usize> {
-            he.binary_search_by(|x| (x.0, x.1).cmp(&(a, b))).ok()
+        edges.sort_unstable();
+        // Corner of triangle t at local vertex v.
+        let corner = |tris: &[[u32; 3]], t: u32, v: u32| -> u32 {
+            let tri = tris[t as usize];
+            3 * t + (0..3).find(|&k| tri[k] == v).unwrap_or(0) as u32
         };
+        // Fans: corners joined across interior edges. Boundary edges: one triangle.
+        let mut fan: Vec<u32> = (0..3 * nt as u32).collect();
+        let mut boundary: Vec<(u32, u32, u32)> = Vec::new();
+        let tris = &self.problem.triangles;
+        let mut i = 0;
+        while i < edges.len() {
+            let mut j = i + 1;
+            while j < edges.len() && (edges[j].0, edges[j].1) == (edges[i].0, edges[i].1) {
+                j += 1;
+            }
+            let (a, b, c) = edges[i];
+            match j - i {
+                1 => boundary.push((a, b, c / 3)),
+                2 => {
+                    let (t1, t2) = (c / 3, edges[i + 1].2 / 3);
+                    union(&mut fan, corner(tris, t1, a), corner(tris, t2, a));
+                    union(&mut fan, corner(tris, t1, b), corner(tris, t2, b));
+                }
+                _ => return false,
+            }
+            i = j;
+        }
+        // Boundary loops: boundary edges meeting at the same fan of a vertex are consecutive.
+        let nb = boundary.len();
+        let mut loops: Vec<u32> = (0..nb as u32).collect();
+        let mut at_fan: Vec<(u32, u32)> = Vec::with_capacity(2 * nb);
+        for (e, &(a, b, t)) in boundary.iter().enumerate() {
+            at_fan.push((find(&mut fan, corner(tris, t, a)), e as u32));
+            at_fan.push((find(&mut fan, corner(tris, t, b)), e as u32));
+        }
+        at_fan.sort_unstable();
+        for w in at_fan.windows(2) {
+            if w[0].0 == w[1].0 {
+                union(&mut loops, w[0].1, w[1].1);
+            }
+        }
+        // Components of the patch, and per component: vertex copies (fans), E, F, H.
         self.uf.clear();
         self.uf.extend(0..n as u32);
-        for t in &self.problem.triangles {
+        for t in tris.iter() {
             union(&mut self.uf, t[0], t[1]);
             union(&mut self.uf, t[0], t[2]);
         }
-        // Per component root: [V (interior), boundary half-edges, E, F, H].
-        let mut counts: Vec<[i64; 5]> = vec![[0; 5]; n];
-        let mut boundary_vertex = vec![false; n];
-        let mut visited = vec![false; he.len()];
-        for &(a, b, _) in &he {
-            let r = find(&mut self.uf, a) as usize;
-            match find_he(b, a) {
-                Some(_) => {
-                    if a < b {
-                        counts[r][2] += 1;
-                    }
-                }
-                None => {
-                    counts[r][1] += 1;
-                    counts[r][2] += 1;
-                    boundary_vertex[a as usize] = true;
-                }
-            }
-        }
-        for t in &self.problem.triangles {
-            let r = find(&mut self.uf, t[0]) as usize;
-            counts[r][3] += 1;
-        }
-        for v in 0..n as u32 {
-            if !boundary_vertex[v as usize] {
+        let mut counts: Vec<[i64; 4]> = vec![[0; 4]; n];
+        for c in 0..3 * nt as u32 {
+            if find(&mut fan, c) == c {
+                let v = tris[(c / 3) as usize][(c % 3) as usize];
                 let r = find(&mut self.uf, v) as usize;
                 counts[r][0] += 1;
             }
         }
-        // Walk each boundary loop: after boundary half-edge a→b, turn around b through the
-        // triangles until the next half-edge leaving b that has no opposite.
-        let tris = &self.problem.triangles;
-        for start in 0..he.len() {
-            let (a0, b0, _) = he[start];
-            if visited[start] || find_he(b0, a0).is_some() {
-                continue;
+        let mut i = 0;
+        while i < edges.len() {
+            let mut j = i + 1;
+            while j < edges.len() && (edges[j].0, edges[j].1) == (edges[i].0, edges[i].1) {
+                j += 1;
             }
-            let r = find(&mut self.uf, a0) as usize;
-            counts[r][4] += 1;
-            let mut cur = start;
-            let mut guard = 0usize;
-            while !visited[cur] {
-                visited[cur] = true;
-                guard += 1;
-                if guard > he.len() {
-                    return false;
-                }
-                let (_, b, _) = he[cur];
-                // The half-edge leaving b in the same triangle as the incoming one.
-                let mut t = he[cur].2 / 3;
-                let mut out = {
-                    let tri = tris[t as usize];
-                    let k = (0..3).find(|&k| tri[k] == b).unwrap_or(0);
-                    (b, tri[(k + 1) % 3])
-                };
-                let mut steps = 0usize;
-                loop {
-                    match find_he(out.1, out.0) {
-                        None => break,
-                        Some(opp) => {
-                            // Cross into the neighbour and take its half-edge leaving b.
-                            t = he[opp].2 / 3;
-                            let tri = tris[t as usize];
-                            let k = (0..3).find(|&k| tri[k] == b).unwrap_or(0);
-                            out = (b, tri[(k + 1) % 3]);
-                        }
-                    }
-                    steps += 1;
-                    if steps > he.len() {
-                        return false;
-                    }
-                }
-                match find_he(out.0, out.1) {
-                    Some(next) => cur = next,
-                    None => return false,
-                }
+            let r = find(&mut self.uf, edges[i].0) as usize;
+            counts[r][1] += 1;
+            i = j;
+        }
+        for t in tris.iter() {
+            let r = find(&mut self.uf, t[0]) as usize;
+            counts[r][2] += 1;
+        }
+        for (e, &(a, _, _)) in boundary.iter().enumerate() {
+            if find(&mut loops, e as u32) == e as u32 {
+                let r = find(&mut self.uf, a) as usize;
+                counts[r][3] += 1;
             }
         }
         for v in 0..n {
             if self.uf[v] as usize != v {
                 continue;
             }
-            let [vi, bh, ec, fc, hc] = counts[v];
+            let [vc, ec, fc, hc] = counts[v];
             if fc == 0 {
                 continue;
             }
-            let chi = vi + bh - ec + fc;
+            let chi = vc - ec + fc;
             if hc == 0 || 2 - chi - hc != 0 {
                 return false;
             }

@@ -129,6 +129,19 @@ fn separates(t: Tri2, s: f64, other: Tri2) -> bool {
     })
 }
 
+/// Overlaps whose area is below this many texel² are floating-point noise: a vertex lying exactly
+/// on a neighbour's edge in the input (a T-junction) ends a few ulps inside it once the chart is
+/// rotated. No texel centre can tell such an overlap apart (the evaluator rasterizes at texel
+/// centres), so both the engine and the independent checker ignore it.
+pub const OVERLAP_AREA_EPS: f64 = 1e-6;
+
+/// Whether two triangles overlap by more than [`OVERLAP_AREA_EPS`] texel²: the exact test first,
+/// then the area of the intersection.
+#[inline]
+pub fn triangles_overlap_beyond_noise(t1: Tri2, t2: Tri2) -> bool {
+    triangles_overlap(t1, t2) && triangle_intersection_area(t1, t2) > OVERLAP_AREA_EPS
+}
+
 /// The area of the intersection of two triangles (either orientation), by clipping one against
 /// the other's three half-planes in floating point (Sutherland–Hodgman, no allocation). Used to
 /// measure how much two overlapping triangles overlap; `triangles_overlap` is the exact test.

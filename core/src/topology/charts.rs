@@ -111,7 +111,8 @@ pub(crate) fn label_charts(
             }
         } else if e.n_sides > 1 {
             // Non-manifold and degenerate edges: every face on them is frozen, so sides sharing
-            // the same UV pair join both partitions.
+            // the same UV pair join both partitions (charts only between faces of the same
+            // isolation, so a chart is never part isolated, part mergeable).
             scratch.clear();
             for &h in sides {
                 if face_flags[h.face()].has_usable_uv() {
@@ -123,7 +124,10 @@ pub(crate) fn label_charts(
             for w in scratch.windows(2) {
                 if (w[0].0, w[0].1) == (w[1].0, w[1].1) {
                     components.union(w[0].2, w[1].2);
-                    charts.union(w[0].2, w[1].2);
+                    let (f0, f1) = (w[0].2 as usize, w[1].2 as usize);
+                    if face_flags[f0].is_isolated() == face_flags[f1].is_isolated() {
+                        charts.union(w[0].2, w[1].2);
+                    }
                 }
             }
         }
