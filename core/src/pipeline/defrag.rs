@@ -240,8 +240,17 @@ pub fn defrag_with_progress(
             (None, Some(s)) => ImageFormat::of_source(&s.image)?,
             (None, None) => ImageFormat::Png,
         };
-        let (sheets, resample) =
-            synthesize(&model, &topo, &face_chart, &packed, output, &work_dir, format, cfg, &protect)?;
+        let (sheets, resample) = synthesize(
+            &model,
+            &topo,
+            &face_chart,
+            &packed,
+            output,
+            &work_dir,
+            format,
+            cfg,
+            &protect,
+        )?;
         times.textures_ms = ms(t);
         let out = packed_model(&model, &topo, &face_chart, &packed, &sheets);
         (out, Some(packed.report), resample, sheets, unpacked)
