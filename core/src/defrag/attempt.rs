@@ -24,11 +24,7 @@ fn ms(t: Instant) -> f64 {
 
 /// What the checks found.
 enum Verdict {
-    Pass {
-        out_num: f64,
-        out_den: f64,
-        in_num: f64,
-    },
+    Pass { out_num: f64, out_den: f64, in_num: f64 },
     Reject(RejectReason),
     /// New overlaps: `offenders` holds the faces involved.
     Overlap,
@@ -167,11 +163,7 @@ impl Engine<'_> {
             return;
         }
         while c != NONE {
-            self.log.corner.set(
-                &mut self.t.corner_uv,
-                c as usize,
-                crate::topology::UvVertId(rep as u32),
-            );
+            self.log.corner.set(&mut self.t.corner_uv, c as usize, crate::topology::UvVertId(rep as u32));
             c = self.fan_next[c as usize];
         }
         let (head_m, tail_m) = (self.fan_head[m], self.fan_tail[m]);
@@ -233,9 +225,7 @@ impl Engine<'_> {
             let verdict = self.verdict(g);
             self.report.timings.checks_ms += ms(t);
             match verdict {
-                Verdict::Pass { out_num, out_den, in_num } => {
-                    return Ok((out_num, out_den, in_num));
-                }
+                Verdict::Pass { out_num, out_den, in_num } => return Ok((out_num, out_den, in_num)),
                 Verdict::Reject(r) => return Err(r),
                 Verdict::Overlap => {
                     if rerun >= self.opts.max_freeze_retries || !self.freeze_offenders() {
@@ -303,11 +293,7 @@ impl Engine<'_> {
             let after = signed_area2(self.tri(f as usize));
             if before >= DEGENERATE_AREA2 && !(after >= DEGENERATE_AREA2) {
                 if std::env::var_os("SCANATLAS_DEBUG").is_some() {
-                    eprintln!(
-                        "fold f={f} before={before} after={after} tri={:?} pre={:?}",
-                        self.tri(f as usize),
-                        self.tri_before(f as usize)
-                    );
+                    eprintln!("fold f={f} before={before} after={after} tri={:?} pre={:?}", self.tri(f as usize), self.tri_before(f as usize));
                 }
                 return Verdict::Reject(RejectReason::Fold);
             }
@@ -341,16 +327,8 @@ impl Engine<'_> {
                 if std::env::var_os("SCANATLAS_DEBUG").is_some() {
                     eprintln!(
                         "overlap f={f} s={s} s_opt={} same={} chart_f={} chart_s={} a={} b={} tf={:?} ts={:?} bf={:?} bs={:?}",
-                        self.face_opt[s],
-                        same_chart,
-                        self.t.face_chart[f],
-                        cs,
-                        g.a,
-                        g.b,
-                        tri,
-                        self.tri(s),
-                        self.tri_before(f),
-                        self.tri_before(s)
+                        self.face_opt[s], same_chart, self.t.face_chart[f], cs, g.a, g.b,
+                        tri, self.tri(s), self.tri_before(f), self.tri_before(s)
                     );
                 }
                 self.offenders.push(f as u32);
@@ -401,8 +379,7 @@ impl Engine<'_> {
             let a2 = signed_area2(after);
             d_area2 += a2 - self.face_area2[f];
             self.face_area2[f] = a2;
-            self.face_energy[f] =
-                self.face_weight[f] * isometric_energy(orig_tri(self.t, f), after);
+            self.face_energy[f] = self.face_weight[f] * isometric_energy(orig_tri(self.t, f), after);
             self.face_optimized[f] = true;
         }
         // Dissolved sides outside every optimized face (only when nothing was freed: all the

@@ -325,7 +325,11 @@ impl<'t> Engine<'t> {
                 *d
             })
             .collect();
-        MergedLayout { face_chart, n_charts: n as usize, optimized: self.face_optimized.clone() }
+        MergedLayout {
+            face_chart,
+            n_charts: n as usize,
+            optimized: self.face_optimized.clone(),
+        }
     }
 }
 
