@@ -82,8 +82,10 @@ pub fn run(args: &DefragArgs, quiet: bool) -> Result<()> {
     let report = run_pipeline(&args.input, &args.output, &cfg, quiet)?;
     if let Some(path) = &args.report {
         let json = serde_json::to_vec_pretty(&report)?;
-        scanatlas_core::atomic::write_atomic(path, &[args.input.clone()], |w| w.write_all(&json))
-            .with_context(|| format!("writing the report {}", path.display()))?;
+        scanatlas_core::atomic::write_atomic(path, std::slice::from_ref(&args.input), |w| {
+            w.write_all(&json)
+        })
+        .with_context(|| format!("writing the report {}", path.display()))?;
     }
     if !quiet {
         let m = &report.merge;
