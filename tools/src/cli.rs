@@ -172,7 +172,37 @@ pub struct DefragArgs {
     /// Write the merged UVs on the input sheets only: no packing, no new textures.
     #[arg(long)]
     pub merge_only: bool,
+    /// Packer plugin (`horizon`, `skyline`).
+    #[arg(long, default_value = "horizon")]
+    pub packer: String,
+    /// Free texels around every chart (two charts end up at least twice this apart).
+    #[arg(long, default_value_t = 4)]
+    pub padding: u32,
+    /// Output sheet size limit, `W` or `WxH` (default: the largest input sheet).
+    #[arg(long, value_name = "W[xH]", value_parser = parse_sheet_size)]
+    pub max_sheet_size: Option<(u32, u32)>,
+    /// Texture format of the written sheets (default: the input's).
+    #[arg(long, value_enum)]
+    pub texture_format: Option<TextureFormatArg>,
+    /// JPEG quality (1-100).
+    #[arg(long, default_value_t = 90, value_parser = clap::value_parser!(u8).range(1..=100))]
+    pub jpeg_quality: u8,
+    /// Folder for the temporary tile files (default: beside the output).
+    #[arg(long)]
+    pub work_dir: Option<PathBuf>,
     /// Write the full run report as JSON to this file.
     #[arg(long, value_name = "FILE.json")]
     pub report: Option<PathBuf>,
+}
+
+/// Parses `W` or `WxH` (positive integers) as a sheet size.
+pub fn parse_sheet_size(s: &str) -> Result<(u32, u32), String> {
+    let parse = |t: &str| match t.trim().parse::<u32>() {
+        Ok(0) | Err(_) => Err(format!("expected W or WxH with positive integers, got {s:?}")),
+        Ok(n) => Ok(n),
+    };
+    match s.split_once(['x', 'X']) {
+        Some((w, h)) => Ok((parse(w)?, parse(h)?)),
+        None => parse(s).map(|w| (w, w)),
+    }
 }

@@ -189,3 +189,110 @@ fn convert_round_trips_through_every_format() {
         assert!((a - b).abs() <= 1e-5 * b, "{model}: solidity {a} vs {b}");
     }
 }
+
+/// Checks a defrag output against its input: same face count and positions in order, every UV
+/// inside the unit square, sheets that exist with the sizes the report gives.
+fn check_defrag_output(d: &Path, input: &str, output: &str, report: &str) {
+    let a = scanatlas_core::io::read_model(&d.join(input)).unwrap();
+    let b = scanatlas_core::io::read_model(&d.join(output)).unwrap();
+    assert_eq!(a.faces.len(), b.faces.len(), "{output}");
+    for (i, (fa, fb)) in a.faces.iter().zip(&b.faces).enumerate() {
+        for k in 0..3 {
+            // glTF stores f32 positions: compare at that precision.
+            let f32s = |p: [f64; 3]| p.map(|x| x as f32);
+            assert_eq!(
+                f32s(a.positions[fa.v[k].idx()]),
+                f32s(b.positions[fb.v[k].idx()]),
+                "face {i}"
+            );
+        }
+        let uv = fb.uv.expect("every synth face keeps its UVs");
+        for t in uv {
+            let p = b.uvs[t.idx()];
+            assert!((0.0..=1.0).contains(&p[0]) && (0.0..=1.0).contains(&p[1]), "{p:?}");
+        }
+    }
+    let r: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join(report)).unwrap()).unwrap();
+    let sheets = r["sheets"].as_array().unwrap();
+    assert!(!sheets.is_empty());
+    let sizes = r["output_stats"]["texture_sizes"].as_array().unwrap();
+    assert_eq!(sheets.len(), sizes.len());
+    assert_eq!(r["pack"]["sheets"].as_u64().unwrap() as usize, sheets.len());
+    assert_eq!(r["faces"].as_u64().unwrap() as usize, a.faces.len());
+    for s in sheets {
+        let p = PathBuf::from(s.as_str().unwrap());
+        let p = if p.is_absolute() { p } else { d.join(p) };
+        assert!(p.exists(), "{}", p.display());
+    }
+    let texels: u64 = r["pack"]["texels"].as_u64().unwrap();
+    assert_eq!(r["output_stats"]["total_texels"].as_u64().unwrap(), texels);
+}
+
+#[test]
+fn defrag_writes_obj_and_glb_that_load_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = scanatlas(&["synth", "s", "--faces", "3000", "--sheet-size", "512", "-q"], d);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for (model, report) in [("o/out.obj", "o/r.json"), ("g/out.glb", "g/r.json")] {
+        let out = scanatlas(&["defrag", "s/scan.obj", "-o", model, "--report", report, "-q"], d);
+        assert!(out.status.success(), "{model}: {}", String::from_utf8_lossy(&out.stderr));
+        check_defrag_output(d, "s/scan.obj", model, report);
+    }
+    // glTF in, OBJ out with another packer and texture format.
+    let out = scanatlas(
+        &[
+            "defrag",
+            "g/out.glb",
+            "-o",
+            "x/out.obj",
+            "--report",
+            "x/r.json",
+            "--packer",
+            "skyline",
+            "--texture-format",
+            "jpg",
+            "--max-sheet-size",
+            "256",
+            "-q",
+        ],
+        d,
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    check_defrag_output(d, "g/out.glb", "x/out.obj", "x/r.json");
+    assert!(d.join("x/out_0.jpg").exists());
+}
+
+#[test]
+fn defrag_refuses_to_overwrite_its_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = scanatlas(&["synth", "s", "--faces", "3000", "--sheet-size", "512", "-q"], d);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let before = std::fs::read(d.join("s/scan.obj")).unwrap();
+    let out = scanatlas(&["defrag", "s/scan.obj", "-o", "s/scan.obj", "-q"], d);
+    assert_clean_failure(&out, "is the input");
+    let out = scanatlas(&["defrag", "s/scan.obj", "-o", "s/./scan.obj", "-q"], d);
+    assert_clean_failure(&out, "is the input");
+    // An output whose sheet `sheet_0.png` would be the input's texture is refused too.
+    let tex = std::fs::read(d.join("s/sheet_0.png")).unwrap();
+    let out = scanatlas(&["defrag", "s/scan.obj", "-o", "s/sheet.obj", "-q"], d);
+    assert_clean_failure(&out, "sheet_0.png");
+    assert_eq!(std::fs::read(d.join("s/sheet_0.png")).unwrap(), tex);
+    assert_eq!(std::fs::read(d.join("s/scan.obj")).unwrap(), before);
+}
+
+#[test]
+fn demo_defragments_its_scan() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = scanatlas(&["demo", "demo-out", "-q"], d);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    for key in ["charts", "solidity", "texels", "vertex replication", "grid-preserved"] {
+        assert!(text.contains(key), "{key}: {text}");
+    }
+    assert!(d.join("demo-out/defragged.obj").exists());
+    assert!(d.join("demo-out/defragged_0.png").exists());
+}

@@ -1,14 +1,24 @@
-//! `defrag`: the texture defragmentation pipeline (load → prepare → merge → write), with the
-//! plugins chosen by name from a [`Registry`] and a serializable run report.
+//! `defrag`: the texture defragmentation pipeline (load → prepare → merge → pack → texture
+//! synthesis → write), with the plugins chosen by name from a [`Registry`] and a serializable run
+//! report.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use super::PipelineError;
-use crate::defrag::{MergeOptions, MergeReport, merge_charts, merged_model};
+use super::convert::output_sheet_path;
+use crate::defrag::{MergeOptions, MergeReport, MergedLayout, merge_charts, merged_model};
+use crate::index::{MaterialId, SheetId, UvId};
 use crate::io::WriteOptions;
-use crate::model::ImageSource;
+use crate::metrics::{AtlasStats, StatsOptions, atlas_stats};
+use crate::model::{ImageSource, Material, Model, Sheet};
+use crate::pack::{LayoutInput, PackOptions, PackReport, PackedLayout, pack_layout};
 use crate::plugin::{Params, Registry};
+use crate::texture::coords::texel_to_uv;
+use crate::texture::encode::{EncodeOptions, write_image};
+use crate::texture::gutter::MAX_RADIUS;
+use crate::texture::resample::{FaceMapping, ResampleOptions, ResampleReport, resample_sheets};
+use crate::texture::{ImageFormat, TileStore, decode};
 use crate::topology::{PreparationReport, Topology};
 
 /// What to run and with which plugins.
@@ -19,6 +29,19 @@ pub struct DefragConfig {
     pub scorer_params: Params,
     pub solver: String,
     pub solver_params: Params,
+    /// Packer plugin (`horizon`, `skyline`, ...).
+    pub packer: String,
+    pub packer_params: Params,
+    /// Padding and output sheet size limit of the packing stage.
+    pub pack: PackOptions,
+    /// Texture format of the output sheets; `None` keeps the format of the first input sheet.
+    pub texture_format: Option<ImageFormat>,
+    pub jpeg_quality: u8,
+    /// Folder of the temporary tile files; `None` = the output's folder.
+    pub work_dir: Option<PathBuf>,
+    /// Count overlapping texels in the input and output metrics; `None` = only when cheap
+    /// (see [`overlaps_are_cheap`]).
+    pub metrics_overlaps: Option<bool>,
     /// Write the merged UVs on the input sheets, without packing or new textures (for measuring
     /// the merge stage alone).
     pub merge_only: bool,
@@ -32,7 +55,42 @@ impl Default for DefragConfig {
             scorer_params: Params::new(),
             solver: "arap".into(),
             solver_params: Params::new(),
+            packer: "horizon".into(),
+            packer_params: Params::new(),
+            pack: PackOptions::default(),
+            texture_format: None,
+            jpeg_quality: 90,
+            work_dir: None,
+            metrics_overlaps: None,
             merge_only: false,
+        }
+    }
+}
+
+/// The stages [`defrag_with_progress`] announces, in run order (`Pack` and `Textures` are
+/// skipped with `merge_only`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DefragStage {
+    Load,
+    Prepare,
+    Merge,
+    Pack,
+    Textures,
+    Write,
+    Metrics,
+}
+
+impl DefragStage {
+    /// A short human label, for progress spinners.
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::Load => "loading",
+            Self::Prepare => "preparing the topology",
+            Self::Merge => "merging charts",
+            Self::Pack => "packing",
+            Self::Textures => "synthesizing textures",
+            Self::Write => "writing the model",
+            Self::Metrics => "measuring input and output",
         }
     }
 }
@@ -43,7 +101,12 @@ pub struct StageTimes {
     pub load_ms: f64,
     pub prepare_ms: f64,
     pub merge_ms: f64,
+    pub pack_ms: f64,
+    /// Decoding the input sheets, resampling and encoding the output sheets.
+    pub textures_ms: f64,
     pub write_ms: f64,
+    /// Atlas figures of the input and of the reloaded output.
+    pub metrics_ms: f64,
     pub total_ms: f64,
 }
 
@@ -54,45 +117,86 @@ pub struct DefragReport {
     pub output: PathBuf,
     pub scorer: String,
     pub solver: String,
+    /// `None` with `merge_only`.
+    pub packer: Option<String>,
     pub options: MergeOptions,
+    pub pack_options: Option<PackOptions>,
     pub faces: u64,
+    /// Faces left out of packing (no usable UVs or no sheet): kept in input order, without UVs
+    /// or with UV (0, 0) on output sheet 0.
+    pub faces_unpacked: u64,
     pub preparation: PreparationReport,
     pub merge: MergeReport,
+    pub pack: Option<PackReport>,
+    pub resample: Option<ResampleReport>,
+    /// Output sheet files written (empty with `merge_only`).
+    pub sheets: Vec<PathBuf>,
+    /// Atlas figures of the input model and of the written output model, read back.
+    pub input_stats: AtlasStats,
+    pub output_stats: AtlasStats,
     pub times: StageTimes,
 }
 
-/// Runs the pipeline on `input`, writing `output`. Plugins are built (and their names and
-/// parameters checked) before any model is read, so a bad name fails at once.
+/// Whether the overlap raster of [`atlas_stats`] is cheap enough to run by default on a model
+/// with this many faces and texels.
+pub fn overlaps_are_cheap(faces: usize, texels: u64) -> bool {
+    faces <= 500_000 && texels <= 1 << 25
+}
+
+/// Runs the pipeline on `input`, writing `output`; see [`defrag_with_progress`].
 pub fn defrag(
     input: &Path,
     output: &Path,
     registry: &Registry,
     cfg: &DefragConfig,
 ) -> Result<DefragReport, PipelineError> {
+    defrag_with_progress(input, output, registry, cfg, &mut |_| {})
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+/// Runs the pipeline on `input`, writing `output` (and its sheets `<stem>_<k>.<ext>` beside it),
+/// calling `progress` at the start of every stage. Plugins are built (and their names and
+/// parameters checked) before any model is read, so a bad name fails at once. Never overwrites
+/// the input model or its textures; `output` naming the input is refused before anything runs.
+pub fn defrag_with_progress(
+    input: &Path,
+    output: &Path,
+    registry: &Registry,
+    cfg: &DefragConfig,
+    progress: &mut dyn FnMut(DefragStage),
+) -> Result<DefragReport, PipelineError> {
     let t_all = Instant::now();
     cfg.merge.validate()?;
     let scorer = registry.scorer(&cfg.scorer, &cfg.scorer_params)?;
     let mut solver = registry.solver(&cfg.solver, &cfg.solver_params)?;
-    if !cfg.merge_only {
-        return Err(PipelineError::Usage(
-            "packing and texture synthesis are not available yet: pass --merge-only".into(),
-        ));
+    let packer = registry.packer(&cfg.packer, &cfg.packer_params)?;
+    if same_file(input, output) {
+        return Err(PipelineError::Usage(format!(
+            "the output {} is the input model; choose another output path",
+            output.display()
+        )));
     }
     let mut times = StageTimes::default();
 
+    progress(DefragStage::Load);
     let t = Instant::now();
     let model = super::load_model(input)?;
-    times.load_ms = t.elapsed().as_secs_f64() * 1e3;
+    times.load_ms = ms(t);
+    let in_sizes = super::sheet_sizes(&model);
 
+    progress(DefragStage::Prepare);
     let t = Instant::now();
-    let mut topo = Topology::build(&model, &super::sheet_sizes(&model))?;
-    times.prepare_ms = t.elapsed().as_secs_f64() * 1e3;
+    let mut topo = Topology::build(&model, &in_sizes)?;
+    times.prepare_ms = ms(t);
 
+    progress(DefragStage::Merge);
     let t = Instant::now();
-    let (merge, _layout) = merge_charts(&mut topo, scorer.as_ref(), solver.as_mut(), &cfg.merge)?;
-    times.merge_ms = t.elapsed().as_secs_f64() * 1e3;
+    let (merge, layout) = merge_charts(&mut topo, scorer.as_ref(), solver.as_mut(), &cfg.merge)?;
+    times.merge_ms = ms(t);
 
-    let t = Instant::now();
     let out_dir = match output.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
@@ -103,19 +207,270 @@ pub fn defrag(
         ImageSource::File(p) => Some(p.clone()),
         ImageSource::Embedded { .. } => None,
     }));
-    let merged = merged_model(&model, &topo);
-    crate::io::write_model(&merged, output, &WriteOptions { protect })?;
-    times.write_ms = t.elapsed().as_secs_f64() * 1e3;
-    times.total_ms = t_all.elapsed().as_secs_f64() * 1e3;
+
+    let (out_model, pack, resample, sheets, faces_unpacked) = if cfg.merge_only {
+        (merged_model(&model, &topo), None, None, Vec::new(), 0)
+    } else {
+        progress(DefragStage::Pack);
+        let t = Instant::now();
+        let (face_chart, unpacked) = packing_charts(&topo, &layout, model.sheets.len());
+        let face_area_3d: Vec<f64> = model.face_ids().map(|f| area_3d(&model, f)).collect();
+        let corner_vert: Vec<u32> = topo.corner_uv.iter().map(|v| v.0).collect();
+        let input_sheet_sizes: Vec<(u32, u32)> =
+            in_sizes.iter().map(|s| s.unwrap_or((1, 1))).collect();
+        let li = LayoutInput {
+            corner_vert: &corner_vert,
+            vert_uv: &topo.uv_pos,
+            orig_uv: &topo.orig_uv,
+            face_chart: &face_chart,
+            face_sheet: &topo.face_sheet,
+            face_area_3d: &face_area_3d,
+            n_charts: layout.n_charts,
+            input_sheet_sizes: &input_sheet_sizes,
+        };
+        let packed = pack_layout(&li, packer.as_ref(), &cfg.pack)?;
+        times.pack_ms = ms(t);
+
+        progress(DefragStage::Textures);
+        let t = Instant::now();
+        let work_dir = cfg.work_dir.clone().unwrap_or_else(|| out_dir.clone());
+        super::create_dir(&work_dir)?;
+        let format = match (cfg.texture_format, model.sheets.first()) {
+            (Some(f), _) => f,
+            (None, Some(s)) => ImageFormat::of_source(&s.image)?,
+            (None, None) => ImageFormat::Png,
+        };
+        let (sheets, resample) = synthesize(
+            &model,
+            &topo,
+            &face_chart,
+            &packed,
+            output,
+            &work_dir,
+            format,
+            cfg,
+            &protect,
+        )?;
+        times.textures_ms = ms(t);
+        let out = packed_model(&model, &topo, &face_chart, &packed, &sheets);
+        (out, Some(packed.report), resample, sheets, unpacked)
+    };
+
+    progress(DefragStage::Write);
+    let t = Instant::now();
+    crate::io::write_model(&out_model, output, &WriteOptions { protect })?;
+    times.write_ms = ms(t);
+
+    progress(DefragStage::Metrics);
+    let t = Instant::now();
+    let texels: u64 =
+        in_sizes.iter().flatten().map(|&(w, h)| u64::from(w) * u64::from(h)).sum::<u64>();
+    let overlaps =
+        cfg.metrics_overlaps.unwrap_or_else(|| overlaps_are_cheap(model.faces.len(), texels));
+    let stats_opts = StatsOptions { overlaps };
+    let input_stats = atlas_stats(&model, &in_sizes, &stats_opts);
+    let written = super::load_model(output)?;
+    let output_stats = atlas_stats(&written, &super::sheet_sizes(&written), &stats_opts);
+    times.metrics_ms = ms(t);
+    times.total_ms = ms(t_all);
     Ok(DefragReport {
         input: input.to_path_buf(),
         output: output.to_path_buf(),
         scorer: cfg.scorer.clone(),
         solver: cfg.solver.clone(),
+        packer: (!cfg.merge_only).then(|| cfg.packer.clone()),
         options: cfg.merge.clone(),
+        pack_options: (!cfg.merge_only).then_some(cfg.pack),
         faces: model.faces.len() as u64,
+        faces_unpacked,
         preparation: topo.report.clone(),
         merge,
+        pack,
+        resample,
+        sheets,
+        input_stats,
+        output_stats,
         times,
     })
+}
+
+/// Whether two paths name the same file (the second may not exist yet).
+fn same_file(a: &Path, b: &Path) -> bool {
+    let canon = |p: &Path| -> Option<PathBuf> {
+        if let Ok(c) = p.canonicalize() {
+            return Some(c);
+        }
+        let parent = match p.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.canonicalize().ok()?,
+            _ => std::env::current_dir().ok()?,
+        };
+        Some(parent.join(p.file_name()?))
+    };
+    match (canon(a), canon(b)) {
+        (Some(x), Some(y)) => x == y,
+        _ => a == b,
+    }
+}
+
+/// The chart of each face for packing (`u32::MAX` for faces without usable UVs or without a
+/// sheet, which packing leaves out) and the number of such faces.
+fn packing_charts(t: &Topology, layout: &MergedLayout, n_sheets: usize) -> (Vec<u32>, u64) {
+    let mut unpacked = 0;
+    let chart = (0..t.face_flags.len())
+        .map(|f| {
+            if t.face_flags[f].has_usable_uv() && (t.face_sheet[f] as usize) < n_sheets {
+                layout.face_chart[f]
+            } else {
+                unpacked += 1;
+                u32::MAX
+            }
+        })
+        .collect();
+    (chart, unpacked)
+}
+
+/// The 3D area of a face (relative to its first corner, so georeferenced offsets cost no
+/// precision).
+fn area_3d(model: &Model, f: crate::index::FaceId) -> f64 {
+    let [a, b, c] = model.face_positions(f);
+    let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+    let n = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
+    0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt()
+}
+
+/// Decodes every input sheet once, resamples the packed layout and writes the output sheets.
+/// Returns the written sheet paths (in output sheet order) and the resample report.
+#[allow(clippy::too_many_arguments)]
+fn synthesize(
+    model: &Model,
+    t: &Topology,
+    face_chart: &[u32],
+    packed: &PackedLayout,
+    output: &Path,
+    work_dir: &Path,
+    format: ImageFormat,
+    cfg: &DefragConfig,
+    protect: &[PathBuf],
+) -> Result<(Vec<PathBuf>, Option<ResampleReport>), PipelineError> {
+    if packed.sheet_sizes.is_empty() {
+        return Ok((Vec::new(), None));
+    }
+    let mut mappings = Vec::with_capacity(face_chart.len());
+    for (f, &chart) in face_chart.iter().enumerate() {
+        if chart == u32::MAX {
+            continue;
+        }
+        let corner = |k: usize| t.corner_uv[3 * f + k].idx();
+        let exact = if packed.face_preserved[f] {
+            packed.chart_transform.get(chart as usize).copied().flatten()
+        } else {
+            None
+        };
+        mappings.push(FaceMapping {
+            dst_sheet: packed.face_sheet[f],
+            dst: [0, 1, 2].map(|k| packed.vert_uv[corner(k)]),
+            src_sheet: t.face_sheet[f],
+            src: [0, 1, 2].map(|k| t.orig_uv[3 * f + k]),
+            exact,
+        });
+    }
+    // Each input sheet is decoded once into a disk-backed tile store (deleted on drop).
+    let inputs: Vec<TileStore> = model
+        .sheets
+        .iter()
+        .map(|s| decode::decode_to_store(&s.image, work_dir))
+        .collect::<Result<_, _>>()?;
+    let input_refs: Vec<&TileStore> = inputs.iter().collect();
+    let opts = ResampleOptions {
+        dilate: cfg.pack.padding.clamp(1, MAX_RADIUS),
+        push_pull: true,
+        work_dir: work_dir.to_path_buf(),
+    };
+    let out = resample_sheets(&input_refs, &mappings, &packed.sheet_sizes, &opts)?;
+    drop(inputs);
+    let enc = EncodeOptions {
+        format: Some(format),
+        jpeg_quality: cfg.jpeg_quality,
+        protect: protect.to_vec(),
+    };
+    let mut paths = Vec::with_capacity(out.sheets.len());
+    for (k, store) in out.sheets.iter().enumerate() {
+        let path = output_sheet_path(output, k, format);
+        write_image(store, &path, &enc)?;
+        paths.push(path);
+    }
+    Ok((paths, Some(out.report)))
+}
+
+/// The output model: the input's positions, normals and faces in input order, one UV record per
+/// output UV vertex (normalized by its output sheet's size), one material per output sheet.
+///
+/// The input's `origin` is kept. For glTF this means the output is written back into the input
+/// document: write-back keeps nodes and their transforms, replaces the base-colour textures and
+/// images by one per current sheet, adds a material for every material beyond the file's, and
+/// splits primitives whose faces now use several materials; it falls back to a fresh document by
+/// itself when the faces no longer map onto the original primitives (they always do here: faces
+/// and positions are unchanged). OBJ and PLY origins only carry grouping and header extras that
+/// stay valid for the same faces; writers of another format ignore a foreign origin.
+fn packed_model(
+    model: &Model,
+    t: &Topology,
+    face_chart: &[u32],
+    packed: &PackedLayout,
+    sheet_paths: &[PathBuf],
+) -> Model {
+    let mut out = model.clone();
+    out.sheets = sheet_paths
+        .iter()
+        .zip(&packed.sheet_sizes)
+        .map(|(p, &size)| Sheet { image: ImageSource::File(p.clone()), size: Some(size) })
+        .collect();
+    out.materials = (0..out.sheets.len())
+        .map(|k| Material {
+            name: format!("atlas{k}"),
+            sheet: Some(SheetId::from_usize(k)),
+            extra: Vec::new(),
+        })
+        .collect();
+    let mut uvs: Vec<[f64; 2]> = Vec::with_capacity(t.uv_pos.len());
+    let mut new_id = vec![u32::MAX; t.uv_pos.len()];
+    let mut zero_uv: Option<UvId> = None;
+    for (f, face) in out.faces.iter_mut().enumerate() {
+        let chart = face_chart[f];
+        if chart == u32::MAX || out.sheets.is_empty() {
+            // Left out of packing: faces without UVs keep none; the others get UV (0, 0) on
+            // sheet 0, so every output UV stays inside the unit square.
+            match face.uv {
+                Some(_) if !out.sheets.is_empty() => {
+                    let id = *zero_uv.get_or_insert_with(|| {
+                        uvs.push([0.0, 0.0]);
+                        UvId::from_usize(uvs.len() - 1)
+                    });
+                    face.uv = Some([id; 3]);
+                    face.material = Some(MaterialId::from_usize(0));
+                }
+                _ => {
+                    face.uv = None;
+                    face.material = None;
+                }
+            }
+            continue;
+        }
+        let sheet = packed.face_sheet[f] as usize;
+        let (w, h) = packed.sheet_sizes[sheet];
+        let mut ids = [UvId(0); 3];
+        for (k, id) in ids.iter_mut().enumerate() {
+            let v = t.corner_uv[3 * f + k].idx();
+            if new_id[v] == u32::MAX {
+                new_id[v] = uvs.len() as u32;
+                uvs.push(texel_to_uv(packed.vert_uv[v], w, h));
+            }
+            *id = UvId(new_id[v]);
+        }
+        face.uv = Some(ids);
+        face.material = Some(MaterialId::from_usize(sheet));
+    }
+    out.uvs = uvs;
+    out
 }

@@ -27,6 +27,8 @@ pub enum PipelineError {
     Topology(#[from] crate::topology::TopologyError),
     #[error(transparent)]
     Defrag(#[from] crate::defrag::DefragError),
+    #[error("packing: {0}")]
+    Pack(#[from] crate::pack::PackError),
 }
 
 /// Reads a model and fills in every sheet's size from its image header (no pixels decoded).

@@ -1,14 +1,18 @@
 //! `scanatlas demo [OUT_DIR]`: the zero-input main command. Makes a small synthetic scan, runs the
-//! main job on it and prints a short summary.
+//! full defragmentation on it into the same folder and prints before/after figures.
 
 use std::path::PathBuf;
 
 use anyhow::Result;
-use scanatlas_core::metrics::{StatsOptions, atlas_stats};
-use scanatlas_core::pipeline;
+use scanatlas_core::metrics::AtlasStats;
+use scanatlas_core::pipeline::defrag::DefragConfig;
 use scanatlas_core::synth::{Shape, SynthParams};
 
 use crate::cli::{DemoArgs, ModelFormatArg};
+
+fn figure(x: Option<f64>) -> String {
+    x.map_or_else(|| "-".into(), |v| format!("{v:.4}"))
+}
 
 pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
     let out_dir = args.out_dir.clone().unwrap_or_else(|| PathBuf::from("scanatlas-demo"));
@@ -21,15 +25,34 @@ pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
         ..SynthParams::default()
     };
     let written = super::synth::write(&out_dir, &params, ModelFormatArg::Obj, quiet)?;
-    let model = pipeline::load_model(&written.model)?;
-    let stats =
-        atlas_stats(&model, &pipeline::sheet_sizes(&model), &StatsOptions { overlaps: true });
+    let output = out_dir.join("defragged.obj");
+    let report =
+        super::defrag::run_pipeline(&written.model, &output, &DefragConfig::default(), quiet)?;
+    let (a, b): (&AtlasStats, &AtlasStats) = (&report.input_stats, &report.output_stats);
     println!("scanatlas demo: a synthetic photogrammetry scan in {}", out_dir.display());
-    print!("{}", super::stats::human(&written.model.display().to_string(), &stats));
+    println!("  input  {}", written.model.display());
+    println!("  output {}", output.display());
+    println!("  {:<22} {:>12} {:>12}", "", "before", "after");
+    println!("  {:<22} {:>12} {:>12}", "charts", a.charts_edge, b.charts_edge);
     println!(
-        "The atlas is shredded into {} charts with solidity {:.4}; `scanatlas defrag` is what repairs that.",
-        stats.charts_edge,
-        stats.atlas_solidity.unwrap_or(0.0)
+        "  {:<22} {:>12} {:>12}",
+        "solidity",
+        figure(a.atlas_solidity),
+        figure(b.atlas_solidity)
     );
+    println!("  {:<22} {:>12} {:>12}", "texels", a.total_texels, b.total_texels);
+    println!(
+        "  {:<22} {:>12} {:>12}",
+        "vertex replication",
+        figure(a.vertex_replication),
+        figure(b.vertex_replication)
+    );
+    println!(
+        "  {:<22} {:>12} {:>12}",
+        "grid-preserved area",
+        "-",
+        figure(report.pack.as_ref().map(|p| p.preserved_area_fraction))
+    );
+    println!("  defragmented in {:.1} s", report.times.total_ms / 1e3);
     Ok(())
 }
