@@ -24,7 +24,11 @@ fn ms(t: Instant) -> f64 {
 
 /// What the checks found.
 enum Verdict {
-    Pass { out_num: f64, out_den: f64, in_num: f64 },
+    Pass {
+        out_num: f64,
+        out_den: f64,
+        in_num: f64,
+    },
     Reject(RejectReason),
     /// New overlaps: `offenders` holds the faces involved.
     Overlap,
@@ -163,7 +167,11 @@ impl Engine<'_> {
             return;
         }
         while c != NONE {
-            self.log.corner.set(&mut self.t.corner_uv, c as usize, crate::topology::UvVertId(rep as u32));
+            self.log.corner.set(
+                &mut self.t.corner_uv,
+                c as usize,
+                crate::topology::UvVertId(rep as u32),
+            );
             c = self.fan_next[c as usize];
         }
         let (head_m, tail_m) = (self.fan_head[m], self.fan_tail[m]);
@@ -225,7 +233,9 @@ impl Engine<'_> {
             let verdict = self.verdict(g);
             self.report.timings.checks_ms += ms(t);
             match verdict {
-                Verdict::Pass { out_num, out_den, in_num } => return Ok((out_num, out_den, in_num)),
+                Verdict::Pass { out_num, out_den, in_num } => {
+                    return Ok((out_num, out_den, in_num));
+                }
                 Verdict::Reject(r) => return Err(r),
                 Verdict::Overlap => {
                     if rerun >= self.opts.max_freeze_retries || !self.freeze_offenders() {
@@ -281,17 +291,18 @@ impl Engine<'_> {
             in_num += self.face_energy[f];
         }
         let global = (self.energy_num + out_num - in_num) / self.energy_den.max(f64::MIN_POSITIVE);
-        if !(global <= self.opts.global_distortion) {
+        // NaN energies fail both tests.
+        if global.is_nan() || global > self.opts.global_distortion {
             return Verdict::Reject(RejectReason::GlobalDistortion);
         }
         let local = if out_den > 0.0 { out_num / out_den } else { 0.0 };
-        if !(local <= self.opts.local_distortion) {
+        if local.is_nan() || local > self.opts.local_distortion {
             return Verdict::Reject(RejectReason::LocalDistortion);
         }
         for &f in &self.opt_faces {
             let before = self.face_area2[f as usize];
             let after = signed_area2(self.tri(f as usize));
-            if before >= DEGENERATE_AREA2 && !(after >= DEGENERATE_AREA2) {
+            if before >= DEGENERATE_AREA2 && (after.is_nan() || after < DEGENERATE_AREA2) {
                 return Verdict::Reject(RejectReason::Fold);
             }
         }
@@ -369,7 +380,8 @@ impl Engine<'_> {
             let a2 = signed_area2(after);
             d_area2 += a2 - self.face_area2[f];
             self.face_area2[f] = a2;
-            self.face_energy[f] = self.face_weight[f] * isometric_energy(orig_tri(self.t, f), after);
+            self.face_energy[f] =
+                self.face_weight[f] * isometric_energy(orig_tri(self.t, f), after);
             self.face_optimized[f] = true;
         }
         // Dissolved sides outside every optimized face (only when nothing was freed: all the

@@ -14,8 +14,8 @@
 //! - `greedy`: the priority queue and the rescoring after each accepted merge.
 
 mod attempt;
-mod grid;
 mod greedy;
+mod grid;
 mod ops;
 mod output;
 mod patch;

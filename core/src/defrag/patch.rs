@@ -228,11 +228,10 @@ impl Engine<'_> {
                 counts[r][3] += 1;
             }
         }
-        for v in 0..n {
+        for (v, &[vc, ec, fc, hc]) in counts.iter().enumerate() {
             if self.uf[v] as usize != v {
                 continue;
             }
-            let [vc, ec, fc, hc] = counts[v];
             if fc == 0 {
                 continue;
             }
@@ -270,7 +269,7 @@ impl Engine<'_> {
                 for k in 0..3 {
                     let (a, b) = (t[k], t[(k + 1) % 3]);
                     let lt = dist(target[k], target[(k + 1) % 3]);
-                    if !(lt > 0.0) {
+                    if lt.is_nan() || lt <= 0.0 {
                         continue;
                     }
                     let lc = dist(self.problem.uv[a as usize], self.problem.uv[b as usize]);

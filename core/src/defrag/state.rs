@@ -325,11 +325,7 @@ impl<'t> Engine<'t> {
                 *d
             })
             .collect();
-        MergedLayout {
-            face_chart,
-            n_charts: n as usize,
-            optimized: self.face_optimized.clone(),
-        }
+        MergedLayout { face_chart, n_charts: n as usize, optimized: self.face_optimized.clone() }
     }
 }
 

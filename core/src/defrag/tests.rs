@@ -187,7 +187,8 @@ fn cone_halves() -> Model {
             let a = f64::from(ray - base) * std::f64::consts::FRAC_PI_2;
             [origin[0] + 10.0 * rho * a.cos(), origin[1] + 10.0 * rho * a.sin()]
         };
-        let (c, i0, i1, o0, o1) = (at(k, 0.0), at(k, 1.0), at(k + 1, 1.0), at(k, 2.0), at(k + 1, 2.0));
+        let (c, i0, i1, o0, o1) =
+            (at(k, 0.0), at(k, 1.0), at(k + 1, 1.0), at(k, 2.0), at(k + 1, 2.0));
         add_face(&mut m, [0, inner(k), inner(k + 1)], [c, i0, i1]);
         add_face(&mut m, [inner(k), outer(k), outer(k + 1)], [i0, o0, o1]);
         add_face(&mut m, [inner(k), outer(k + 1), inner(k + 1)], [i0, o1, i1]);

@@ -15,8 +15,7 @@ pub use energy::{
 pub use fit::{Rigid2, rigid_fit};
 pub use grid::GridTransform;
 pub use predicates::{
-    OVERLAP_AREA_EPS, triangles_overlap_beyond_noise,
-    orient2d, orientation, point_in_triangle_strict, segments_cross, triangle_intersection_area,
-    triangles_overlap,
+    OVERLAP_AREA_EPS, orient2d, orientation, point_in_triangle_strict, segments_cross,
+    triangle_intersection_area, triangles_overlap, triangles_overlap_beyond_noise,
 };
 pub use svd::{Mat2, closest_rotation, singular_values, svd2, svd2_signed};

@@ -158,7 +158,8 @@ pub fn triangle_intersection_area(t1: Tri2, t2: Tri2) -> f64 {
     let mut next = [[0.0f64; 2]; 9];
     for i in 0..3 {
         let (a, b) = (t1[i], t1[(i + 1) % 3]);
-        let side = |p: [f64; 2]| sign * ((b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]));
+        let side =
+            |p: [f64; 2]| sign * ((b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]));
         let mut m = 0;
         for k in 0..n {
             let (p, q) = (poly[k], poly[(k + 1) % n]);

@@ -748,8 +748,7 @@ impl LocalSolver for ArapSolver {
             let change = (running - next).abs() / running;
             running = next;
             std::mem::swap(&mut self.current, &mut self.trial);
-            if (energy == 0.0 && wrong == 0)
-                || (running == 0.0 && wrong == 0)
+            if ((energy == 0.0 || running == 0.0) && wrong == 0)
                 || change < self.params.tolerance
                 || (rising && stalled >= STALL_LIMIT)
             {
