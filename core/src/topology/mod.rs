@@ -10,9 +10,9 @@
 //!
 //! Chart definition. Two faces are in the same chart when they are linked through edges whose
 //! two sides use the same two UV vertices (`(welded position, sheet, u, v)`), i.e. the evaluator's
-//! `charts_edge`, with one refinement: "isolated" faces (no or non-finite UVs, no sheet size,
-//! degenerate) only join other isolated faces, so a chart is entirely mergeable or entirely
-//! frozen. Other frozen faces (zero 3D or UV area, on a non-manifold edge) ride along with the
+//! `charts_edge`, with one refinement: "isolated" faces (no or non-finite UVs, no sheet size)
+//! only join other isolated faces, so a chart is entirely mergeable or entirely frozen. Other
+//! frozen faces (degenerate, zero 3D or UV area, on a non-manifold edge) ride along with the
 //! chart they are UV-connected to, but no seam of theirs is dissolved.
 //! [`PreparationReport::uv_components`] keeps the plain evaluator count for comparison.
 

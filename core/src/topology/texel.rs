@@ -34,14 +34,14 @@ impl FrozenReasons {
         self.0 != 0
     }
 
-    /// Whether the face cannot even ride along with a chart: it has no usable UVs, no sheet, or
-    /// two corners at one 3D position (its edges cannot be paired by position). Such faces form
-    /// charts of their own. Other frozen faces (zero 3D or UV area, on a non-manifold edge) stay
-    /// in the chart they are UV-connected to and move with it, but no seam of theirs is ever
-    /// dissolved, so they are never merged themselves and never dropped.
+    /// Whether the face cannot even ride along with a chart: it has no usable UVs or no sheet.
+    /// Such faces form charts of their own. Other frozen faces (degenerate, zero 3D or UV area,
+    /// on a non-manifold edge) stay in the chart they are UV-connected to and move with it, but
+    /// no seam of theirs is ever dissolved, so they are never merged themselves and never
+    /// dropped.
     #[inline]
     pub fn is_isolated(self) -> bool {
-        self.0 & (Self::NO_UV | Self::NON_FINITE_UV | Self::NO_SHEET | Self::DEGENERATE) != 0
+        self.0 & (Self::NO_UV | Self::NON_FINITE_UV | Self::NO_SHEET) != 0
     }
 
     /// Whether the given reason bit is set.
