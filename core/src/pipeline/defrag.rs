@@ -294,22 +294,10 @@ pub fn defrag_with_progress(
     })
 }
 
-/// Whether two paths name the same file (the second may not exist yet).
+/// Whether two paths name the same file (the second may not exist yet): the protect rule of
+/// the atomic writers.
 fn same_file(a: &Path, b: &Path) -> bool {
-    let canon = |p: &Path| -> Option<PathBuf> {
-        if let Ok(c) = p.canonicalize() {
-            return Some(c);
-        }
-        let parent = match p.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d.canonicalize().ok()?,
-            _ => std::env::current_dir().ok()?,
-        };
-        Some(parent.join(p.file_name()?))
-    };
-    match (canon(a), canon(b)) {
-        (Some(x), Some(y)) => x == y,
-        _ => a == b,
-    }
+    crate::atomic::is_protected(b, &[a.to_path_buf()])
 }
 
 /// The chart of each face for packing (`u32::MAX` for faces without usable UVs or without a
