@@ -362,7 +362,6 @@ impl Engine<'_> {
 
     /// Keeps the attempt: face caches, chart caches and lists, atlas sums, logs.
     fn commit(&mut self, g: &OpGeometry, (out_num, out_den, in_num): (f64, f64, f64)) {
-        let _ = out_den;
         let mut d_area2 = 0.0;
         let mut d_perimeter = 0.0;
         for i in 0..self.opt_faces.len() {
