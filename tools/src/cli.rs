@@ -169,6 +169,13 @@ pub struct DefragArgs {
     /// Never retry an operation that failed (the paper's NoRetry ablation).
     #[arg(long)]
     pub no_retry: bool,
+    /// One merge queue for the whole atlas (the serial baseline of the parallel clusters).
+    #[arg(long)]
+    pub serial: bool,
+    /// Faces at which a cluster of charts stops growing (clusters come from the data, never
+    /// from --threads, so the output is the same for every thread count).
+    #[arg(long, default_value_t = scanatlas_core::defrag::DEFAULT_CLUSTER_FACES, value_name = "N")]
+    pub cluster_faces: u32,
     /// Write the merged UVs on the input sheets only: no packing, no new textures.
     #[arg(long)]
     pub merge_only: bool,

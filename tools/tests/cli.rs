@@ -296,3 +296,69 @@ fn demo_defragments_its_scan() {
     assert!(d.join("demo-out/defragged.obj").exists());
     assert!(d.join("demo-out/defragged_0.png").exists());
 }
+
+/// The report without its timings, speeds and output paths (the only parts that may differ
+/// between two runs into two folders).
+fn report_without_times(path: &Path) -> serde_json::Value {
+    fn strip(v: &mut serde_json::Value) {
+        match v {
+            serde_json::Value::Object(m) => {
+                m.retain(|k, _| {
+                    let timing =
+                        k.ends_with("_ms") || k.starts_with("ms_") || k.ends_with("_per_s");
+                    let path = matches!(k.as_str(), "output" | "sheets" | "name");
+                    !timing && !path && !matches!(k.as_str(), "timings" | "times")
+                });
+                m.values_mut().for_each(strip);
+            }
+            serde_json::Value::Array(a) => a.iter_mut().for_each(strip),
+            _ => {}
+        }
+    }
+    let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap();
+    strip(&mut v);
+    v
+}
+
+#[test]
+fn defrag_output_is_the_same_for_every_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = scanatlas(&["synth", "s", "--faces", "6000", "--sheet-size", "512", "-q"], d);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    // Small clusters, so that several rounds of parallel queues run.
+    for n in ["1", "2", "4"] {
+        let (model, report) = (format!("t{n}/out.obj"), format!("t{n}/r.json"));
+        let out = scanatlas(
+            &[
+                "--threads",
+                n,
+                "defrag",
+                "s/scan.obj",
+                "-o",
+                &model,
+                "--report",
+                &report,
+                "--cluster-faces",
+                "1000",
+                "-q",
+            ],
+            d,
+        );
+        assert!(out.status.success(), "{n}: {}", String::from_utf8_lossy(&out.stderr));
+    }
+    let rounds = report_without_times(&d.join("t1/r.json"))["merge"]["rounds"].clone();
+    assert!(rounds.as_array().is_some_and(|r| r.len() >= 2), "clusters ran: {rounds}");
+    for n in ["2", "4"] {
+        for f in ["out.obj", "out.mtl", "out_0.png"] {
+            let a = std::fs::read(d.join("t1").join(f)).unwrap();
+            let b = std::fs::read(d.join(format!("t{n}")).join(f)).unwrap();
+            assert!(a == b, "{f} differs between --threads 1 and {n}");
+        }
+        assert_eq!(
+            report_without_times(&d.join("t1/r.json")),
+            report_without_times(&d.join(format!("t{n}/r.json"))),
+            "reports differ between --threads 1 and {n}"
+        );
+    }
+}

@@ -5,7 +5,7 @@
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use super::ops::{EngineOp, OpGeometry, OpState};
 use super::state::{Engine, MergedLayout, OrdF64};
@@ -15,8 +15,8 @@ use crate::topology::{ChartId, OpKind, Topology};
 
 type Queue = BinaryHeap<(OrdF64, Reverse<u32>, u32)>;
 
-/// Runs the merge stage on `t` in place: on return its UV vertices, corners, twins, chart ids and
-/// chart caches describe the merged layout.
+/// Runs the merge stage on `t` in place with a single queue (the serial baseline): on return its
+/// UV vertices, corners, twins, chart ids and chart caches describe the merged layout.
 pub fn merge_charts(
     t: &mut Topology,
     scorer: &dyn MergeScorer,
@@ -27,64 +27,107 @@ pub fn merge_charts(
     let start = Instant::now();
     let mut e = Engine::new(t, opts.clone());
     e.report.timings.init_ms = start.elapsed().as_secs_f64() * 1e3;
-    let mut queue = Queue::new();
-    let ts = Instant::now();
-    for op in 0..e.ops.len() as u32 {
-        e.rescore(op, scorer, &mut queue);
+    let deadline =
+        (opts.time_limit > 0.0).then(|| start + Duration::from_secs_f64(opts.time_limit));
+    e.report.stop = e.run_queue(scorer, solver, None, deadline);
+    Ok(e.finish(start))
+}
+
+impl Engine<'_> {
+    /// Whether both charts of `op` are in `scope` (every chart when there is no scope).
+    pub(crate) fn in_scope(&self, op: u32, scope: Option<&[bool]>) -> bool {
+        scope.is_none_or(|s| {
+            let (x, y) = self.op_charts(op);
+            s[x.idx()] && s[y.idx()]
+        })
     }
-    e.report.timings.scoring_ms += ts.elapsed().as_secs_f64() * 1e3;
 
-    let border_stop = opts.uv_border_target * e.border_len_input;
-    e.report.stop = loop {
-        if opts.time_limit > 0.0 && start.elapsed().as_secs_f64() >= opts.time_limit {
-            break StopReason::TimeLimit;
+    /// The greedy loop over the operations in `scope`: scores the queued and vetoed ones, then
+    /// attempts them by appeal until the queue is empty or a stop criterion holds.
+    pub(crate) fn run_queue(
+        &mut self,
+        scorer: &dyn MergeScorer,
+        solver: &mut dyn LocalSolver,
+        scope: Option<&[bool]>,
+        deadline: Option<Instant>,
+    ) -> StopReason {
+        let mut queue = Queue::new();
+        let ts = Instant::now();
+        for op in 0..self.ops.len() as u32 {
+            let live = matches!(self.ops[op as usize].state, OpState::Queued | OpState::Vetoed(_));
+            if live && self.in_scope(op, scope) {
+                self.rescore(op, scorer, &mut queue, scope);
+            }
         }
-        if opts.uv_border_target > 0.0 && e.border_len < border_stop {
-            break StopReason::BorderTarget;
-        }
-        let Some((_, Reverse(op), version)) = queue.pop() else {
-            break StopReason::QueueEmpty;
-        };
-        let o = &e.ops[op as usize];
-        if o.version != version || o.state != OpState::Queued {
-            continue;
-        }
-        e.report.attempted += 1;
-        match e.attempt(op, solver) {
-            Ok(g) => {
-                e.report.accepted += 1;
-                if e.ops[op as usize].failures > 0 {
-                    e.report.accepted_after_failure += 1;
+        self.report.timings.scoring_ms += ts.elapsed().as_secs_f64() * 1e3;
+
+        let border_stop = self.opts.uv_border_target * self.border_len_input;
+        loop {
+            if deadline.is_some_and(|d| Instant::now() >= d) {
+                return StopReason::TimeLimit;
+            }
+            if self.opts.uv_border_target > 0.0 && self.border_len < border_stop {
+                return StopReason::BorderTarget;
+            }
+            let Some((_, Reverse(op), version)) = queue.pop() else {
+                return StopReason::QueueEmpty;
+            };
+            let o = &self.ops[op as usize];
+            if o.version != version || o.state != OpState::Queued {
+                continue;
+            }
+            self.report.attempted += 1;
+            match self.attempt(op, solver) {
+                Ok(g) => {
+                    self.report.accepted += 1;
+                    if self.ops[op as usize].failures > 0 {
+                        self.report.accepted_after_failure += 1;
+                    }
+                    self.ops[op as usize].state = OpState::Done;
+                    let ts = Instant::now();
+                    self.after_success(&g, scorer, &mut queue, scope);
+                    self.report.timings.scoring_ms += ts.elapsed().as_secs_f64() * 1e3;
                 }
-                e.ops[op as usize].state = OpState::Done;
-                let ts = Instant::now();
-                e.after_success(&g, scorer, &mut queue);
-                e.report.timings.scoring_ms += ts.elapsed().as_secs_f64() * 1e3;
-            }
-            Err(r) => {
-                e.report.rejected.add(r);
-                let o = &mut e.ops[op as usize];
-                o.failures += 1;
-                o.version += 1;
-                o.state = OpState::Failed(r);
+                Err(r) => {
+                    self.report.rejected.add(r);
+                    let o = &mut self.ops[op as usize];
+                    o.failures += 1;
+                    o.version += 1;
+                    o.state = OpState::Failed(r);
+                }
             }
         }
-    };
+    }
 
-    let frozen = e.t.charts.iter().filter(|c| c.frozen).count() as u64;
-    let live = (0..e.t.charts.len()).filter(|&c| e.chart_live(ChartId(c as u32))).count() as u64;
-    e.report.mergeable_charts_after = live;
-    e.report.charts_after = live + frozen;
-    e.report.energy_after = if e.energy_den > 0.0 { e.energy_num / e.energy_den } else { 0.0 };
-    e.report.uv_border_after = e.border_len;
-    e.report.timings.total_ms = start.elapsed().as_secs_f64() * 1e3;
-    let layout = e.layout();
-    Ok((e.report, layout))
+    /// The final counts of the report and the layout for packing.
+    pub(crate) fn finish(mut self, start: Instant) -> (MergeReport, MergedLayout) {
+        let frozen = self.t.charts.iter().filter(|c| c.frozen).count() as u64;
+        let live =
+            (0..self.t.charts.len()).filter(|&c| self.chart_live(ChartId(c as u32))).count() as u64;
+        self.report.mergeable_charts_after = live;
+        self.report.charts_after = live + frozen;
+        self.report.energy_after =
+            if self.energy_den > 0.0 { self.energy_num / self.energy_den } else { 0.0 };
+        self.report.uv_border_after = self.border_len;
+        self.report.timings.total_ms = start.elapsed().as_secs_f64() * 1e3;
+        let layout = self.layout();
+        (self.report, layout)
+    }
 }
 
 impl Engine<'_> {
     /// Scores `op` again in the current layout: queued with a new version, or vetoed.
-    fn rescore(&mut self, op: u32, scorer: &dyn MergeScorer, queue: &mut Queue) {
+    fn rescore(
+        &mut self,
+        op: u32,
+        scorer: &dyn MergeScorer,
+        queue: &mut Queue,
+        scope: Option<&[bool]>,
+    ) {
+        // Operations reaching out of a cluster wait for the round that holds both charts.
+        if !self.in_scope(op, scope) {
+            return;
+        }
         let features = self.features(op);
         let o = &mut self.ops[op as usize];
         o.version += 1;
@@ -106,7 +149,13 @@ impl Engine<'_> {
     /// charts go together), rescore everything on a, bring failed operations back (unless
     /// `no_retry`), and rescore the boundary-vetoed operations of a's neighbours, whose small-island
     /// look-ahead may now pass.
-    fn after_success(&mut self, g: &OpGeometry, scorer: &dyn MergeScorer, queue: &mut Queue) {
+    fn after_success(
+        &mut self,
+        g: &OpGeometry,
+        scorer: &dyn MergeScorer,
+        queue: &mut Queue,
+        scope: Option<&[bool]>,
+    ) {
         let a = g.a;
         let mut list = std::mem::take(&mut self.chart_ops[a.idx()]);
         if g.inter {
@@ -161,8 +210,8 @@ impl Engine<'_> {
         }
         for &op in &list {
             match self.ops[op as usize].state {
-                OpState::Queued | OpState::Vetoed(_) => self.rescore(op, scorer, queue),
-                OpState::Failed(_) if !self.opts.no_retry => self.rescore(op, scorer, queue),
+                OpState::Queued | OpState::Vetoed(_) => self.rescore(op, scorer, queue, scope),
+                OpState::Failed(_) if !self.opts.no_retry => self.rescore(op, scorer, queue, scope),
                 _ => {}
             }
         }
@@ -181,7 +230,7 @@ impl Engine<'_> {
             for i in 0..self.chart_ops[c.idx()].len() {
                 let op = self.chart_ops[c.idx()][i];
                 if self.ops[op as usize].state == OpState::Vetoed(Veto::Boundary) {
-                    self.rescore(op, scorer, queue);
+                    self.rescore(op, scorer, queue, scope);
                 }
             }
             self.chart_ops[c.idx()].retain(|&op| {

@@ -8,7 +8,7 @@
 use crate::geometry::Tri2;
 
 /// Faces bucketed by the grid cells their bounding boxes touch.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub(crate) struct FaceGrid {
     origin: [f64; 2],
     inv_cell: f64,

@@ -14,6 +14,7 @@
 //! - `greedy`: the priority queue and the rescoring after each accepted merge.
 
 mod attempt;
+mod clusters;
 mod greedy;
 mod grid;
 mod ops;
@@ -25,11 +26,16 @@ mod undo;
 #[cfg(test)]
 mod tests;
 
+pub use clusters::merge_charts_parallel;
 pub use greedy::merge_charts;
 pub use output::merged_model;
 pub use state::MergedLayout;
 
 use crate::plugin::Veto;
+
+/// Default cluster size in faces: large enough that a cluster's own merges dominate the
+/// operations along its border, small enough that a venus-sized scan gives a few per core.
+pub const DEFAULT_CLUSTER_FACES: u32 = 65_536;
 
 /// The parameters of the merge stage, with the paper's defaults (§5, digest §4.5).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -50,6 +56,9 @@ pub struct MergeOptions {
     pub no_retry: bool,
     /// How many times the solve is rerun with the vertices of new overlaps frozen (digest §5.8).
     pub max_freeze_retries: u32,
+    /// The face count at which a cluster of charts stops growing (0: one queue for the whole
+    /// atlas, the serial baseline). Clusters come from the data alone, never from the thread count.
+    pub cluster_faces: u32,
 }
 
 impl Default for MergeOptions {
@@ -62,6 +71,7 @@ impl Default for MergeOptions {
             time_limit: 0.0,
             no_retry: false,
             max_freeze_retries: 10,
+            cluster_faces: DEFAULT_CLUSTER_FACES,
         }
     }
 }
@@ -261,5 +271,58 @@ pub struct MergeReport {
     /// The largest optimization area attempted, in faces.
     pub max_patch_faces: u64,
     pub stop: StopReason,
+    /// The parallel rounds (empty for the serial baseline), the last one serial on one cluster.
+    pub rounds: Vec<ClusterRound>,
+    /// Per-step times, summed over clusters (so they may exceed the wall time).
     pub timings: MergeTimings,
+}
+
+/// One round of the cluster scheduler.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct ClusterRound {
+    pub clusters: u32,
+    pub largest_cluster_faces: u64,
+    pub attempted: u64,
+    pub accepted: u64,
+    pub wall_ms: f64,
+}
+
+impl MergeReport {
+    /// Adds the counts and times of a cluster's run.
+    pub(crate) fn absorb(&mut self, o: &MergeReport) {
+        self.attempted += o.attempted;
+        self.accepted += o.accepted;
+        self.accepted_after_failure += o.accepted_after_failure;
+        let (r, q) = (&mut self.rejected, &o.rejected);
+        r.early_overlap += q.early_overlap;
+        r.topology += q.topology;
+        r.numerical += q.numerical;
+        r.local_distortion += q.local_distortion;
+        r.global_distortion += q.global_distortion;
+        r.fold += q.fold;
+        r.overlap += q.overlap;
+        self.vetoes.zero_area += o.vetoes.zero_area;
+        self.vetoes.matching += o.vetoes.matching;
+        self.vetoes.boundary += o.vetoes.boundary;
+        self.freeze_reruns += o.freeze_reruns;
+        self.max_accepted_local_energy =
+            self.max_accepted_local_energy.max(o.max_accepted_local_energy);
+        self.solver_iterations += o.solver_iterations;
+        self.optimized_faces += o.optimized_faces;
+        self.max_patch_faces = self.max_patch_faces.max(o.max_patch_faces);
+        if o.stop == StopReason::TimeLimit {
+            self.stop = StopReason::TimeLimit;
+        }
+        let (t, u) = (&mut self.timings, &o.timings);
+        t.init_ms += u.init_ms;
+        t.scoring_ms += u.scoring_ms;
+        t.align_fuse_ms += u.align_fuse_ms;
+        t.area_ms += u.area_ms;
+        t.early_check_ms += u.early_check_ms;
+        t.build_problem_ms += u.build_problem_ms;
+        t.solve_ms += u.solve_ms;
+        t.checks_ms += u.checks_ms;
+        t.commit_ms += u.commit_ms;
+        t.rollback_ms += u.rollback_ms;
+    }
 }

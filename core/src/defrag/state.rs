@@ -93,6 +93,28 @@ pub(crate) struct Engine<'t> {
     pub base_fixed: Vec<bool>,
 }
 
+/// The state of an engine that a cluster's fork copies (everything but scratch and logs).
+struct Parts {
+    fan_head: Vec<u32>,
+    fan_tail: Vec<u32>,
+    fan_next: Vec<u32>,
+    face_area2: Vec<f64>,
+    face_weight: Vec<f64>,
+    face_energy: Vec<f64>,
+    face_optimized: Vec<bool>,
+    face_mirrored: Vec<bool>,
+    chart_faces: Vec<Vec<u32>>,
+    energy_num: f64,
+    energy_den: f64,
+    border_len: f64,
+    border_len_input: f64,
+    grid: FaceGrid,
+    grid_live: usize,
+    ops: Vec<EngineOp>,
+    chart_ops: Vec<Vec<u32>>,
+    report: MergeReport,
+}
+
 /// An `f64` ordered by `total_cmp`, for heaps.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct OrdF64(pub f64);
@@ -206,8 +228,7 @@ impl<'t> Engine<'t> {
         report.ops_initial = ops.len() as u64;
         report.energy_before = if energy_den > 0.0 { energy_num / energy_den } else { 0.0 };
         report.uv_border_before = border_len;
-        Self {
-            opts,
+        let parts = Parts {
             fan_head,
             fan_tail,
             fan_next,
@@ -221,8 +242,64 @@ impl<'t> Engine<'t> {
             energy_den,
             border_len,
             border_len_input: border_len,
-            grid_live: mergeable_faces,
             grid,
+            grid_live: mergeable_faces,
+            ops,
+            chart_ops,
+            report,
+        };
+        Self::assemble(t, opts, parts)
+    }
+
+    /// A copy of this engine's state working on `t`, which must be a copy of this engine's
+    /// topology: the worker of one cluster. Scratch and undo logs start empty; the report starts
+    /// from zero so that the cluster's counts can be added to the master's.
+    pub fn fork<'u>(&self, t: &'u mut Topology) -> Engine<'u> {
+        let parts = Parts {
+            fan_head: self.fan_head.clone(),
+            fan_tail: self.fan_tail.clone(),
+            fan_next: self.fan_next.clone(),
+            face_area2: self.face_area2.clone(),
+            face_weight: self.face_weight.clone(),
+            face_energy: self.face_energy.clone(),
+            face_optimized: self.face_optimized.clone(),
+            face_mirrored: self.face_mirrored.clone(),
+            chart_faces: self.chart_faces.clone(),
+            energy_num: self.energy_num,
+            energy_den: self.energy_den,
+            border_len: self.border_len,
+            border_len_input: self.border_len_input,
+            grid: self.grid.clone(),
+            grid_live: self.grid_live,
+            ops: self.ops.clone(),
+            chart_ops: self.chart_ops.clone(),
+            report: MergeReport::default(),
+        };
+        Engine::assemble(t, self.opts.clone(), parts)
+    }
+
+    /// The engine from its state and fresh scratch buffers.
+    fn assemble(t: &'t mut Topology, opts: MergeOptions, p: Parts) -> Self {
+        let nf = t.face_chart.len();
+        let nv = t.uv_pos.len();
+        let nc = t.corner_uv.len();
+        Self {
+            opts,
+            fan_head: p.fan_head,
+            fan_tail: p.fan_tail,
+            fan_next: p.fan_next,
+            face_area2: p.face_area2,
+            face_weight: p.face_weight,
+            face_energy: p.face_energy,
+            face_optimized: p.face_optimized,
+            face_mirrored: p.face_mirrored,
+            chart_faces: p.chart_faces,
+            energy_num: p.energy_num,
+            energy_den: p.energy_den,
+            border_len: p.border_len,
+            border_len_input: p.border_len_input,
+            grid_live: p.grid_live,
+            grid: p.grid,
             log: Logs {
                 pos: Saved::new(nv),
                 corner: Saved::new(nc),
@@ -231,9 +308,9 @@ impl<'t> Engine<'t> {
                 tail: Saved::new(nv),
                 next: Saved::new(nc),
             },
-            ops,
-            chart_ops,
-            report,
+            ops: p.ops,
+            chart_ops: p.chart_ops,
+            report: p.report,
             pairs: Vec::new(),
             pts: Vec::new(),
             vert_stamp: vec![0; nv],
@@ -290,9 +367,13 @@ impl<'t> Engine<'t> {
 
     /// Rebuilds the grid from the current layout once stale entries outnumber live ones 3 to 1.
     pub fn maybe_compact_grid(&mut self) {
-        if self.grid.entries() <= 4 * self.grid_live.max(1) + 1024 {
-            return;
+        if self.grid.entries() > 4 * self.grid_live.max(1) + 1024 {
+            self.rebuild_grid();
         }
+    }
+
+    /// Rebuilds the grid from the current layout of every live chart.
+    pub fn rebuild_grid(&mut self) {
         self.grid.clear();
         for c in 0..self.chart_faces.len() {
             for i in 0..self.chart_faces[c].len() {

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use super::PipelineError;
 use super::convert::output_sheet_path;
-use crate::defrag::{MergeOptions, MergeReport, MergedLayout, merge_charts, merged_model};
+use crate::defrag::{MergeOptions, MergeReport, MergedLayout, merge_charts_parallel, merged_model};
 use crate::index::{MaterialId, SheetId, UvId};
 use crate::io::WriteOptions;
 use crate::metrics::{AtlasStats, StatsOptions, atlas_stats};
@@ -171,7 +171,12 @@ pub fn defrag_with_progress(
     let t_all = Instant::now();
     cfg.merge.validate()?;
     let scorer = registry.scorer(&cfg.scorer, &cfg.scorer_params)?;
-    let mut solver = registry.solver(&cfg.solver, &cfg.solver_params)?;
+    // One solver per worker that may run a cluster at once; which one solves what never
+    // changes the result.
+    let mut solvers = Vec::new();
+    for _ in 0..rayon::current_num_threads().max(1) {
+        solvers.push(registry.solver(&cfg.solver, &cfg.solver_params)?);
+    }
     let packer = registry.packer(&cfg.packer, &cfg.packer_params)?;
     if same_file(input, output) {
         return Err(PipelineError::Usage(format!(
@@ -194,7 +199,7 @@ pub fn defrag_with_progress(
 
     progress(DefragStage::Merge);
     let t = Instant::now();
-    let (merge, layout) = merge_charts(&mut topo, scorer.as_ref(), solver.as_mut(), &cfg.merge)?;
+    let (merge, layout) = merge_charts_parallel(&mut topo, scorer.as_ref(), solvers, &cfg.merge)?;
     times.merge_ms = ms(t);
 
     let out_dir = match output.parent() {

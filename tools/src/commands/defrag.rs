@@ -34,6 +34,7 @@ pub fn config(args: &DefragArgs) -> DefragConfig {
             uv_border_target: args.uv_border_target,
             time_limit: args.time_limit,
             no_retry: args.no_retry,
+            cluster_faces: if args.serial { 0 } else { args.cluster_faces },
             ..MergeOptions::default()
         },
         scorer: args.scorer.clone(),
