@@ -135,6 +135,10 @@ pub enum SolveError {
     Factorization(String),
     #[error("the solution is not finite")]
     Diverged,
+    /// The solver needs a start without flipped triangles and could not make one (a fallback
+    /// chain such as `slim,arap` then tries the next solver).
+    #[error("no start without flipped triangles")]
+    NotInjective,
 }
 
 /// Improves the UVs of a local problem in place. Must never leave a flipped triangle that was not
