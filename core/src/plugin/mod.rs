@@ -4,8 +4,11 @@
 //! API boundary: `scanatlas-plugins` sees only this module (and `geometry`). One dynamic call is
 //! made per operation or per local problem; hot loops inside a plugin stay monomorphic.
 
+mod chain;
 mod packer;
 mod registry;
+
+pub use chain::SolverChain;
 
 pub use packer::{
     ALL_ROTATIONS, Footprint, MAX_FOOTPRINT_CELLS, PackItem, PackOutput, Packer, PackerError,
