@@ -24,7 +24,7 @@ impl MergeScorer for SmallestFirst {
     fn score(&self, op: &OpFeatures) -> Score {
         self.calls.fetch_add(1, Ordering::Relaxed);
         let smaller = op.uv_area_a.min(op.uv_area_b);
-        if !(smaller > 0.0) {
+        if smaller.is_nan() || smaller <= 0.0 {
             return Score::Veto(Veto::ZeroArea);
         }
         if op.mean_match_error > self.max_error {

@@ -33,7 +33,7 @@ pub struct GlobalArgs {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Defragments a textured model's atlas: merges charts, repacks, writes new textures.
-    Defrag(DefragArgs),
+    Defrag(Box<DefragArgs>),
     /// Atlas figures of a model: charts, seams, solidity, texels, defects.
     Stats(StatsArgs),
     /// Writes a synthetic photogrammetry-like scan with a known true colour.

@@ -463,6 +463,9 @@ impl SlimSolver {
     }
 
     /// Assembles the SLIM proxy at `uv`: local step (SVD, weights, rotations) and global system.
+    // The loops run over matrix components that index several arrays at once (M, Q, slots, rows):
+    // index loops read like the formulas.
+    #[allow(clippy::needless_range_loop)]
     fn assemble(&mut self, uv: &[[f64; 2]]) {
         let nf = self.free.len();
         self.values.clear();

@@ -291,7 +291,7 @@ mod tests {
         let mut argv = vec!["scanatlas", "defrag", "in.obj", "-o", "out.obj"];
         argv.extend_from_slice(extra);
         match crate::cli::Cli::parse_from(argv).command {
-            crate::cli::Command::Defrag(a) => a,
+            crate::cli::Command::Defrag(a) => *a,
             _ => unreachable!(),
         }
     }
