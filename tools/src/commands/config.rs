@@ -1,6 +1,8 @@
 //! `defrag --config FILE.toml`: top-level defrag options and per-plugin parameter tables
 //! (`[scorer.NAME]`, `[solver.NAME]`, `[packer.NAME]`), merged under the command-line flags, and
 //! the check of every plugin name and parameter against the registry before any work starts.
+//! A plugin is chosen with `solver = "slim"` at the top level, or with `[solver] use = "slim,arap"`
+//! when the file also has `[solver.NAME]` tables (TOML allows only one of the two forms).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -80,6 +82,12 @@ impl FileConfig {
             };
             let toml::Value::Table(plugins) = value else { continue };
             for (name, params) in plugins {
+                // TOML cannot hold both `solver = "slim"` and a `[solver.slim]` table, so the
+                // selection may also be written inside the kind's table: `[solver] use = "slim"`.
+                if name == "use" {
+                    cfg.options.insert(key.clone(), params);
+                    continue;
+                }
                 let toml::Value::Table(params) = params else {
                     return Err(usage(format!(
                         "{origin}: [{key}.{name}] must be a table of parameters"
@@ -318,10 +326,11 @@ mod tests {
     fn flags_override_the_file_and_tables_reach_their_plugins() {
         let text = r#"
             alpha = 10
-            solver = "slim,arap"
             no-retry = true
             matching-tolerance = 3.0
             max-sheet-size = "2048x1024"
+            [solver]
+            use = "slim,arap"
             [solver.slim]
             max-iterations = 20
             [solver.arap]
@@ -364,5 +373,8 @@ mod tests {
         let err = defrag_config(&args(&["--scorer", "paperr"]), &registry()).unwrap_err().0;
         assert!(err.contains("no-benefit-cost"), "{err}");
         assert!(with_file("not toml [", &[]).is_err());
+        // The plain form works without tables.
+        let cfg = with_file("solver = \"slim\"\n", &[]).unwrap();
+        assert_eq!(cfg.solver, "slim");
     }
 }
