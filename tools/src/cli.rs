@@ -33,7 +33,7 @@ pub struct GlobalArgs {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Defragments a textured model's atlas: merges charts, repacks, writes new textures.
-    Defrag(DefragArgs),
+    Defrag(Box<DefragArgs>),
     /// Atlas figures of a model: charts, seams, solidity, texels, defects.
     Stats(StatsArgs),
     /// Writes a synthetic photogrammetry-like scan with a known true colour.
@@ -42,6 +42,8 @@ pub enum Command {
     Demo(DemoArgs),
     /// Converts a model to another format, re-encoding its texture sheets through the tile store.
     Convert(ConvertArgs),
+    /// Lists every plugin (scorers, solvers, packers) with its parameters and their defaults.
+    Plugins(PluginsArgs),
 }
 
 #[derive(Debug, Args)]
@@ -131,6 +133,9 @@ pub struct ConvertArgs {
     pub work_dir: Option<PathBuf>,
 }
 
+/// Options of `defrag`. The tunable ones are `Option`s so that a value given on the command line
+/// can be told from one taken from `--config FILE.toml` (the command line wins) or from the
+/// built-in default (shown in each help line).
 #[derive(Debug, Args)]
 pub struct DefragArgs {
     /// Input model (.obj, .gltf, .glb, .ply).
@@ -138,34 +143,39 @@ pub struct DefragArgs {
     /// Output model (.obj, .gltf, .glb, .ply); sheets are written beside it.
     #[arg(short, long)]
     pub output: PathBuf,
-    /// m: maximum mean alignment error, in multiples of the mean seam length.
-    #[arg(long, default_value_t = 2.0)]
-    pub matching_tolerance: f64,
-    /// b: an inter-chart merge must dissolve at least this fraction of one chart's perimeter.
-    #[arg(long, default_value_t = 0.2)]
-    pub boundary_tolerance: f64,
-    /// d: maximum mean isometric energy of an optimization area.
-    #[arg(long, default_value_t = 0.5)]
-    pub local_distortion: f64,
-    /// g: maximum mean isometric energy of the whole atlas (a budget for the run).
-    #[arg(long, default_value_t = 0.025)]
-    pub global_distortion: f64,
-    /// α: optimization area radius in multiples of each fused vertex's displacement.
-    #[arg(long, default_value_t = 5.0)]
-    pub alpha: f64,
-    /// Stop once the UV border is below this fraction of the input's (0: never).
-    #[arg(long, default_value_t = 0.0)]
-    pub uv_border_target: f64,
+    /// Options and per-plugin parameters (`[solver.slim] max-iterations = 20`); flags override it.
+    #[arg(long, value_name = "FILE.toml")]
+    pub config: Option<PathBuf>,
+    /// m: maximum mean alignment error, in multiples of the mean seam length [default: 2].
+    #[arg(long)]
+    pub matching_tolerance: Option<f64>,
+    /// b: an inter-chart merge must dissolve at least this fraction of one chart's perimeter
+    /// [default: 0.2].
+    #[arg(long)]
+    pub boundary_tolerance: Option<f64>,
+    /// d: maximum mean isometric energy of an optimization area [default: 0.5].
+    #[arg(long)]
+    pub local_distortion: Option<f64>,
+    /// g: maximum mean isometric energy of the whole atlas (a budget for the run)
+    /// [default: 0.025].
+    #[arg(long)]
+    pub global_distortion: Option<f64>,
+    /// α: optimization area radius in multiples of each fused vertex's displacement [default: 5].
+    #[arg(long)]
+    pub alpha: Option<f64>,
+    /// Stop once the UV border is below this fraction of the input's (0: never) [default: 0].
+    #[arg(long)]
+    pub uv_border_target: Option<f64>,
     /// Stop merging after this many seconds (0: no limit; the only option that makes the output
-    /// depend on timing).
-    #[arg(long, default_value_t = 0.0)]
-    pub time_limit: f64,
-    /// Merge scorer plugin (see `scanatlas plugins`).
-    #[arg(long, default_value = "paper")]
-    pub scorer: String,
-    /// Local solver plugin.
-    #[arg(long, default_value = "arap")]
-    pub solver: String,
+    /// depend on timing) [default: 0].
+    #[arg(long)]
+    pub time_limit: Option<f64>,
+    /// Merge scorer plugin (see `scanatlas plugins`) [default: paper].
+    #[arg(long)]
+    pub scorer: Option<String>,
+    /// Local solver plugin, or a fallback chain such as `slim,arap` [default: arap].
+    #[arg(long)]
+    pub solver: Option<String>,
     /// Never retry an operation that failed (the paper's NoRetry ablation).
     #[arg(long)]
     pub no_retry: bool,
@@ -173,33 +183,40 @@ pub struct DefragArgs {
     #[arg(long)]
     pub serial: bool,
     /// Faces at which a cluster of charts stops growing (clusters come from the data, never
-    /// from --threads, so the output is the same for every thread count).
-    #[arg(long, default_value_t = scanatlas_core::defrag::DEFAULT_CLUSTER_FACES, value_name = "N")]
-    pub cluster_faces: u32,
+    /// from --threads, so the output is the same for every thread count) [default: 65536].
+    #[arg(long, value_name = "N")]
+    pub cluster_faces: Option<u32>,
     /// Write the merged UVs on the input sheets only: no packing, no new textures.
     #[arg(long)]
     pub merge_only: bool,
-    /// Packer plugin (`horizon`, `skyline`).
-    #[arg(long, default_value = "horizon")]
-    pub packer: String,
-    /// Free texels around every chart (two charts end up at least twice this apart).
-    #[arg(long, default_value_t = 4)]
-    pub padding: u32,
+    /// Packer plugin (`horizon`, `skyline`) [default: horizon].
+    #[arg(long)]
+    pub packer: Option<String>,
+    /// Free texels around every chart (two charts end up at least twice this apart) [default: 4].
+    #[arg(long)]
+    pub padding: Option<u32>,
     /// Output sheet size limit, `W` or `WxH` (default: the largest input sheet).
     #[arg(long, value_name = "W[xH]", value_parser = parse_sheet_size)]
     pub max_sheet_size: Option<(u32, u32)>,
     /// Texture format of the written sheets (default: the input's).
     #[arg(long, value_enum)]
     pub texture_format: Option<TextureFormatArg>,
-    /// JPEG quality (1-100).
-    #[arg(long, default_value_t = 90, value_parser = clap::value_parser!(u8).range(1..=100))]
-    pub jpeg_quality: u8,
+    /// JPEG quality (1-100) [default: 90].
+    #[arg(long, value_parser = clap::value_parser!(u8).range(1..=100))]
+    pub jpeg_quality: Option<u8>,
     /// Folder for the temporary tile files (default: beside the output).
     #[arg(long)]
     pub work_dir: Option<PathBuf>,
     /// Write the full run report as JSON to this file.
     #[arg(long, value_name = "FILE.json")]
     pub report: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
+pub struct PluginsArgs {
+    /// Print the list as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Parses `W` or `WxH` (positive integers) as a sheet size.

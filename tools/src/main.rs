@@ -20,6 +20,10 @@ fn main() -> ExitCode {
     }
     match commands::run(args) {
         Ok(()) => ExitCode::SUCCESS,
+        Err(err) if err.downcast_ref::<commands::UsageError>().is_some() => {
+            eprintln!("scanatlas: error: {err}");
+            ExitCode::from(2)
+        }
         Err(err) => {
             // One line per cause, outermost first, so cron logs stay readable.
             eprintln!("scanatlas: error: {err}");

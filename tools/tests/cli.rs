@@ -51,6 +51,23 @@ fn usage_errors_exit_with_status_2() {
     assert_eq!(out.status.code(), Some(2));
     let out = scanatlas(&["stats"], dir.path());
     assert_eq!(out.status.code(), Some(2));
+    // Unknown plugins and parameters: status 2 before the (missing) input is even read, with the
+    // valid names listed.
+    let out =
+        scanatlas(&["defrag", "missing.obj", "-o", "o.obj", "--solver", "slim,rap"], dir.path());
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("arap, slim"));
+    let cfg = write(dir.path(), "c.toml", b"[packer.horizon]\nsed = 1\n");
+    let out = scanatlas(
+        &["defrag", "missing.obj", "-o", "o.obj", "--config", cfg.to_str().unwrap()],
+        dir.path(),
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("seed, shuffle-below"));
+    let out = scanatlas(&["plugins"], dir.path());
+    assert_eq!(out.status.code(), Some(0));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("solver slim:") && text.contains("max-iterations = 25"), "{text}");
 }
 
 #[test]

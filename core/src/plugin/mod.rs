@@ -4,8 +4,11 @@
 //! API boundary: `scanatlas-plugins` sees only this module (and `geometry`). One dynamic call is
 //! made per operation or per local problem; hot loops inside a plugin stay monomorphic.
 
+mod chain;
 mod packer;
 mod registry;
+
+pub use chain::SolverChain;
 
 pub use packer::{
     ALL_ROTATIONS, Footprint, MAX_FOOTPRINT_CELLS, PackItem, PackOutput, Packer, PackerError,
@@ -135,6 +138,10 @@ pub enum SolveError {
     Factorization(String),
     #[error("the solution is not finite")]
     Diverged,
+    /// The solver needs a start without flipped triangles and could not make one (a fallback
+    /// chain such as `slim,arap` then tries the next solver).
+    #[error("no start without flipped triangles")]
+    NotInjective,
 }
 
 /// Improves the UVs of a local problem in place. Must never leave a flipped triangle that was not

@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use super::{LocalSolver, MergeScorer, Packer};
+use super::{LocalSolver, MergeScorer, Packer, SolverChain};
 
 /// The kinds of plugins.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]
@@ -164,13 +164,83 @@ impl Registry {
     }
 
     /// Builds the solver `name`, refusing unknown names and parameters.
+    ///
+    /// `name` may be a fallback chain `a,b,...` (see [`SolverChain`]): each solver of the chain
+    /// gets the parameters written `a.param`, and a plain `param` goes to every solver of the
+    /// chain that declares it (it is unknown when none does).
     pub fn solver(&self, name: &str, params: &Params) -> Result<Box<dyn LocalSolver>, PluginError> {
-        (lookup(&self.solvers, PluginKind::Solver, name, params)?.factory)(params)
+        if !name.contains(',') {
+            return (lookup(&self.solvers, PluginKind::Solver, name, params)?.factory)(params);
+        }
+        let names: Vec<&str> = name.split(',').map(str::trim).collect();
+        let mut used = vec![false; params.len()];
+        let mut solvers = Vec::with_capacity(names.len());
+        for &n in &names {
+            let entry = lookup(&self.solvers, PluginKind::Solver, n, &Params::new())?;
+            let mut own = Params::new();
+            for (i, (key, value)) in params.iter().enumerate() {
+                let param = match key.split_once('.') {
+                    Some((owner, param)) if owner == n => param,
+                    Some(_) => continue,
+                    None if entry.info.params.iter().any(|p| p.name == key) => key.as_str(),
+                    None => continue,
+                };
+                own.insert(param.to_string(), value.clone());
+                used[i] = true;
+            }
+            let entry = lookup(&self.solvers, PluginKind::Solver, n, &own)?;
+            solvers.push((entry.factory)(&own)?);
+        }
+        if let Some(i) = used.iter().position(|u| !u) {
+            let key = params.keys().nth(i).cloned().unwrap_or_default();
+            let mut available = Vec::new();
+            for &n in &names {
+                if let Some(e) = self.solvers.get(n) {
+                    available.extend(e.info.params.iter().map(|p| format!("{n}.{}", p.name)));
+                }
+            }
+            return Err(PluginError::UnknownParam {
+                kind: PluginKind::Solver,
+                name: name.to_string(),
+                param: key,
+                available: available.join(", "),
+            });
+        }
+        Ok(Box::new(SolverChain::new(solvers)))
     }
 
     /// Builds the packer `name`, refusing unknown names and parameters.
     pub fn packer(&self, name: &str, params: &Params) -> Result<Box<dyn Packer>, PluginError> {
         (lookup(&self.packers, PluginKind::Packer, name, params)?.factory)(params)
+    }
+
+    /// The description of the plugin `name` of `kind`, if registered.
+    pub fn info(&self, kind: PluginKind, name: &str) -> Option<&PluginInfo> {
+        match kind {
+            PluginKind::Scorer => self.scorers.get(name).map(|e| &e.info),
+            PluginKind::Solver => self.solvers.get(name).map(|e| &e.info),
+            PluginKind::Packer => self.packers.get(name).map(|e| &e.info),
+        }
+    }
+
+    /// The registered names of `kind`, sorted.
+    pub fn names(&self, kind: PluginKind) -> Vec<&'static str> {
+        match kind {
+            PluginKind::Scorer => self.scorers.keys().copied().collect(),
+            PluginKind::Solver => self.solvers.keys().copied().collect(),
+            PluginKind::Packer => self.packers.keys().copied().collect(),
+        }
+    }
+
+    /// Checks that `name` is a registered plugin of `kind` (a solver may be a chain) and that it
+    /// accepts `params`, by building it (factories are cheap and have no side effects), so a
+    /// configuration of a plugin that is not used in a run is still checked before any work.
+    pub fn check(&self, kind: PluginKind, name: &str, params: &Params) -> Result<(), PluginError> {
+        match kind {
+            PluginKind::Scorer => self.scorer(name, params).map(drop),
+            PluginKind::Solver => self.solver(name, params).map(drop),
+            PluginKind::Packer => self.packer(name, params).map(drop),
+        }
     }
 
     /// Every registered plugin, by kind then name.
@@ -280,5 +350,66 @@ mod tests {
         assert_eq!(get_u64(&Params::new(), &i, "seed", 0..=10), Ok(0));
         p.insert("seed".into(), ParamValue::Float(2.5));
         assert!(get_u64(&p, &i, "seed", 0..=10).is_err());
+    }
+
+    struct Still;
+
+    impl LocalSolver for Still {
+        fn solve(
+            &mut self,
+            p: &mut crate::plugin::LocalProblem,
+        ) -> Result<crate::plugin::SolveReport, crate::plugin::SolveError> {
+            p.validate()?;
+            Ok(crate::plugin::SolveReport::default())
+        }
+    }
+
+    fn solver_info(name: &'static str, params: Vec<ParamInfo>) -> PluginInfo {
+        PluginInfo { kind: PluginKind::Solver, name, summary: "test", params }
+    }
+
+    #[test]
+    fn solver_chains_take_qualified_parameters() {
+        let mut r = Registry::default();
+        let k = ParamInfo { name: "k", default: ParamValue::Int(1), help: "" };
+        r.register_solver(solver_info("a", vec![k]), |_| Ok(Box::new(Still))).unwrap();
+        r.register_solver(solver_info("b", vec![]), |_| Ok(Box::new(Still))).unwrap();
+        assert!(matches!(
+            r.register_solver(solver_info("b", vec![]), |_| Ok(Box::new(Still))),
+            Err(PluginError::Duplicate { kind: PluginKind::Solver, .. })
+        ));
+        assert!(r.solver("a,b", &Params::new()).is_ok());
+        assert!(r.solver(" b , a ", &Params::new()).is_ok());
+        match r.solver("a,c", &Params::new()) {
+            Err(PluginError::UnknownName { name, available, .. }) => {
+                assert_eq!((name.as_str(), available.as_str()), ("c", "a, b"));
+            }
+            other => panic!("{:?}", other.err()),
+        }
+        assert!(r.solver("a,", &Params::new()).is_err());
+        let with = |key: &str| {
+            let mut p = Params::new();
+            p.insert(key.into(), ParamValue::Int(2));
+            p
+        };
+        assert!(r.solver("a,b", &with("a.k")).is_ok());
+        assert!(r.solver("a,b", &with("k")).is_ok());
+        match r.solver("a,b", &with("b.k")) {
+            Err(PluginError::UnknownParam { name, param, available, .. }) => {
+                assert_eq!((name.as_str(), param.as_str(), available.as_str()), ("b", "k", "none"));
+            }
+            other => panic!("{:?}", other.err()),
+        }
+        match r.solver("a,b", &with("z")) {
+            Err(PluginError::UnknownParam { param, available, .. }) => {
+                assert_eq!((param.as_str(), available.as_str()), ("z", "a.k"));
+            }
+            other => panic!("{:?}", other.err()),
+        }
+        assert!(r.solver("a,b", &with("c.k")).is_err());
+        assert!(r.check(PluginKind::Solver, "a,b", &with("a.k")).is_ok());
+        assert!(r.check(PluginKind::Packer, "a", &Params::new()).is_err());
+        assert_eq!(r.names(PluginKind::Solver), vec!["a", "b"]);
+        assert_eq!(r.info(PluginKind::Solver, "a").map(|i| i.params.len()), Some(1));
     }
 }

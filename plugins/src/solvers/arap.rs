@@ -143,6 +143,41 @@ struct TriData {
     guarded: bool,
 }
 
+/// The orientation every triangle of a patch should have (shared with `slim`, so both solvers
+/// call the same triangles flipped): the patch's mirror state is the area-weighted majority of
+/// (current orientation × target orientation), and zero-area targets expect the patch's dominant
+/// current orientation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct OrientationState {
+    patch: i8,
+    mirror: i8,
+}
+
+impl OrientationState {
+    pub(super) fn of(problem: &LocalProblem) -> Self {
+        let (mut total, mut agreement) = (0.0, 0.0);
+        for (&v, &target) in problem.triangles.iter().zip(&problem.targets) {
+            let current = corners(&problem.uv, v);
+            total += signed_area2(current);
+            let product = orientation(current) * orientation(target);
+            agreement += f64::from(product) * signed_area2(target).abs();
+        }
+        Self {
+            patch: if total < 0.0 { -1 } else { 1 },
+            mirror: if agreement < 0.0 { -1 } else { 1 },
+        }
+    }
+
+    /// The orientation (+1 or −1, never 0) a triangle with this target should have.
+    #[inline]
+    pub(super) fn expected(self, target: Tri2) -> i8 {
+        match orientation(target) {
+            0 => self.patch,
+            o => self.mirror * o,
+        }
+    }
+}
+
 /// How the matrix was factorized.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Factor {
@@ -207,16 +242,16 @@ impl ArapSolver {
 }
 
 #[inline]
-fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+pub(super) fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
     [a[0] - b[0], a[1] - b[1]]
 }
 
 #[inline]
-fn corners(uv: &[[f64; 2]], v: [u32; 3]) -> Tri2 {
+pub(super) fn corners(uv: &[[f64; 2]], v: [u32; 3]) -> Tri2 {
     [uv[v[0] as usize], uv[v[1] as usize], uv[v[2] as usize]]
 }
 
-fn find(parent: &mut [u32], mut x: u32) -> u32 {
+pub(super) fn find(parent: &mut [u32], mut x: u32) -> u32 {
     while parent[x as usize] != x {
         let p = parent[x as usize];
         parent[x as usize] = parent[p as usize];
@@ -259,7 +294,7 @@ fn cot_weights(t: Tri2) -> [f64; 3] {
 /// length of the first edge, corner 2 at the unsigned angle between the edges, on the side given by
 /// `sign` (the orientation the triangle is expected to have in the current layout). Also the
 /// inverse of the frame's edge matrix `F = [p1 p2]` when it is invertible.
-fn local_frame(t: Tri2, sign: f64) -> ([[f64; 2]; 2], Option<Mat2>) {
+pub(super) fn local_frame(t: Tri2, sign: f64) -> ([[f64; 2]; 2], Option<Mat2>) {
     let e1 = sub(t[1], t[0]);
     let e2 = sub(t[2], t[0]);
     let l1 = e1[0].hypot(e1[1]);
@@ -338,21 +373,10 @@ impl ArapSolver {
     /// would distort its neighbours), while a fold made by the merge is undone. Zero-area targets
     /// expect the patch's dominant current orientation.
     fn prepare_triangles(&mut self, problem: &LocalProblem) {
-        let (mut total, mut agreement) = (0.0, 0.0);
-        for (&v, &target) in problem.triangles.iter().zip(&problem.targets) {
-            let current = corners(&problem.uv, v);
-            total += signed_area2(current);
-            let product = orientation(current) * orientation(target);
-            agreement += f64::from(product) * signed_area2(target).abs();
-        }
-        let patch: i8 = if total < 0.0 { -1 } else { 1 };
-        let mirror: i8 = if agreement < 0.0 { -1 } else { 1 };
+        let state = OrientationState::of(problem);
         self.tris.clear();
         for (&v, &target) in problem.triangles.iter().zip(&problem.targets) {
-            let expected = match orientation(target) {
-                0 => patch,
-                o => mirror * o,
-            };
+            let expected = state.expected(target);
             let (p, finv) = local_frame(target, f64::from(expected));
             // Only triangles oriented as expected at the start are guarded: the others are flipped
             // already, and the solver may (and should) unflip them.

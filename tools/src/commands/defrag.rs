@@ -2,10 +2,8 @@
 //! name, a spinner per stage, a one-line summary on stderr and the full report as JSON on request.
 
 use anyhow::{Context, Result};
-use scanatlas_core::defrag::MergeOptions;
-use scanatlas_core::pack::PackOptions;
 use scanatlas_core::pipeline::defrag::{DefragConfig, DefragReport, defrag_with_progress};
-use scanatlas_core::plugin::{ParamValue, Params, Registry};
+use scanatlas_core::plugin::Registry;
 use scanatlas_core::texture::ImageFormat;
 
 use crate::cli::{DefragArgs, TextureFormatArg};
@@ -21,39 +19,11 @@ pub fn image_format(f: TextureFormatArg) -> ImageFormat {
     }
 }
 
-/// The pipeline configuration the arguments describe.
-pub fn config(args: &DefragArgs) -> DefragConfig {
-    let mut scorer_params = Params::new();
-    scorer_params.insert("matching-tolerance".into(), ParamValue::Float(args.matching_tolerance));
-    scorer_params.insert("boundary-tolerance".into(), ParamValue::Float(args.boundary_tolerance));
-    DefragConfig {
-        merge: MergeOptions {
-            local_distortion: args.local_distortion,
-            global_distortion: args.global_distortion,
-            alpha: args.alpha,
-            uv_border_target: args.uv_border_target,
-            time_limit: args.time_limit,
-            no_retry: args.no_retry,
-            cluster_faces: if args.serial { 0 } else { args.cluster_faces },
-            ..MergeOptions::default()
-        },
-        scorer: args.scorer.clone(),
-        scorer_params,
-        solver: args.solver.clone(),
-        solver_params: Params::new(),
-        packer: args.packer.clone(),
-        packer_params: Params::new(),
-        pack: PackOptions {
-            padding: args.padding,
-            max_sheet_size: args.max_sheet_size,
-            ..PackOptions::default()
-        },
-        texture_format: args.texture_format.map(image_format),
-        jpeg_quality: args.jpeg_quality,
-        work_dir: args.work_dir.clone(),
-        metrics_overlaps: None,
-        merge_only: args.merge_only,
-    }
+/// The registry of every built-in plugin.
+pub fn builtin_registry() -> Registry {
+    let mut registry = Registry::default();
+    scanatlas_plugins::register_builtin(&mut registry);
+    registry
 }
 
 /// Runs the pipeline with one spinner per stage (none with `--quiet`).
@@ -63,8 +33,7 @@ pub fn run_pipeline(
     cfg: &DefragConfig,
     quiet: bool,
 ) -> Result<DefragReport> {
-    let mut registry = Registry::default();
-    scanatlas_plugins::register_builtin(&mut registry);
+    let registry = builtin_registry();
     let mut stage: Option<Stage> = None;
     let report = defrag_with_progress(input, output, &registry, cfg, &mut |s| {
         if let Some(old) = stage.take() {
@@ -79,7 +48,8 @@ pub fn run_pipeline(
 }
 
 pub fn run(args: &DefragArgs, quiet: bool) -> Result<()> {
-    let cfg = config(args);
+    // Every name and parameter is checked (exit status 2) before the model is read.
+    let cfg = super::config::defrag_config(args, &builtin_registry())?;
     let report = run_pipeline(&args.input, &args.output, &cfg, quiet)?;
     if let Some(path) = &args.report {
         let json = serde_json::to_vec_pretty(&report)?;

@@ -1,14 +1,29 @@
 //! Dispatch of the subcommands.
 
+mod config;
 mod convert;
 mod defrag;
 mod demo;
+mod plugins;
 mod stats;
 mod synth;
 
 use anyhow::Result;
 
 use crate::cli::{Cli, Command};
+
+/// A usage mistake found after argument parsing (an unknown plugin or parameter, a bad config
+/// file): `main` exits with status 2 for it, as for clap's own usage errors.
+#[derive(Debug)]
+pub struct UsageError(pub String);
+
+impl std::fmt::Display for UsageError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for UsageError {}
 
 pub fn run(cli: Cli) -> Result<()> {
     let quiet = cli.global.quiet;
@@ -18,5 +33,6 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Demo(a) => demo::run(&a, quiet),
         Command::Convert(a) => convert::run(&a, quiet),
         Command::Defrag(a) => defrag::run(&a, quiet),
+        Command::Plugins(a) => plugins::run(&a),
     }
 }
