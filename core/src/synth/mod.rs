@@ -19,6 +19,7 @@ mod mesh;
 mod pack;
 mod paint;
 mod rng;
+pub mod rig;
 #[cfg(test)]
 mod tests;
 

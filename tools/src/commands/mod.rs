@@ -1,10 +1,12 @@
 //! Dispatch of the subcommands.
 
+mod build;
 mod convert;
 mod defrag;
 mod demo;
 mod stats;
 mod synth;
+mod synth_rig;
 
 use anyhow::Result;
 
@@ -18,5 +20,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Demo(a) => demo::run(&a, quiet),
         Command::Convert(a) => convert::run(&a, quiet),
         Command::Defrag(a) => defrag::run(&a, quiet),
+        Command::Build(a) => build::run(&a, quiet),
+        Command::SynthRig(a) => synth_rig::run(&a, quiet),
     }
 }
