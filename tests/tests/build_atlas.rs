@@ -2,10 +2,10 @@
 //! colour, identical results from COLMAP text, COLMAP binary and Bundler, and smoothing that
 //! shrinks the colour jump across chart frontiers.
 
+use scanatlas_core::ImageSource;
 use scanatlas_core::pipeline::build::{BuildConfig, build};
 use scanatlas_core::plugin::Registry;
 use scanatlas_core::synth::rig::{RigParams, generate_rig, texture_psnr};
-use scanatlas_core::ImageSource;
 use scanatlas_core::texture::decode;
 
 #[test]
@@ -53,7 +53,14 @@ fn build_from_a_synthetic_rig() {
         r.seam_jump_before, r.seam_jump_after
     );
     assert!(texels > 10_000);
-    assert!(db > 20.0, "PSNR {db}");
-    assert!(r.seam_jump_after < 0.85 * r.seam_jump_before, "{} -> {}", r.seam_jump_before, r.seam_jump_after);
+    // Measured 37.8 dB: the photos carry per-photo gains of up to ±12%, which bound the PSNR
+    // of a texture copied verbatim from them; 30 dB leaves margin for sampling differences.
+    assert!(db > 30.0, "PSNR {db}");
+    assert!(
+        r.seam_jump_after < 0.85 * r.seam_jump_before,
+        "{} -> {}",
+        r.seam_jump_before,
+        r.seam_jump_after
+    );
     let _ = ImageSource::File(out);
 }

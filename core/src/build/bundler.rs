@@ -5,8 +5,8 @@
 
 use std::path::Path;
 
-use super::cameras::{Distortion, Intrinsics, PhotoCamera, Rig};
 use super::BuildError;
+use super::cameras::{Distortion, Intrinsics, PhotoCamera, Rig};
 use crate::model::ImageSource;
 
 const FLIP: [f64; 3] = [1.0, -1.0, -1.0];
@@ -22,13 +22,19 @@ pub fn read(bundle: &Path, images: &Path) -> Result<Rig, BuildError> {
         .filter_map(|l| l.split_ascii_whitespace().next().map(str::to_string))
         .collect();
     // Tokens with their line numbers, comments dropped.
-    let mut toks = text.lines().enumerate().filter(|(_, l)| !l.trim_start().starts_with('#')).flat_map(
-        |(n, l)| l.split_ascii_whitespace().map(move |t| (n + 1, t)),
-    );
+    let mut toks = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim_start().starts_with('#'))
+        .flat_map(|(n, l)| l.split_ascii_whitespace().map(move |t| (n + 1, t)));
     let last_line = text.lines().count();
     let mut next = |what: &str| -> Result<f64, BuildError> {
         let Some((ln, t)) = toks.next() else {
-            return Err(BuildError::line(bundle, last_line, format!("unexpected end of file: {what}")));
+            return Err(BuildError::line(
+                bundle,
+                last_line,
+                format!("unexpected end of file: {what}"),
+            ));
         };
         t.parse::<f64>()
             .ok()
@@ -42,7 +48,11 @@ pub fn read(bundle: &Path, images: &Path) -> Result<Rig, BuildError> {
     }
     let n = n as usize;
     if names.len() < n {
-        return Err(BuildError::line(&list_path, names.len(), format!("{} images listed, bundle has {n} cameras", names.len())));
+        return Err(BuildError::line(
+            &list_path,
+            names.len(),
+            format!("{} images listed, bundle has {n} cameras", names.len()),
+        ));
     }
     let mut cameras = Vec::new();
     for (k, name) in names.iter().enumerate().take(n) {
@@ -62,7 +72,11 @@ pub fn read(bundle: &Path, images: &Path) -> Result<Rig, BuildError> {
         }
         let path = images.join(name);
         if !path.is_file() {
-            return Err(BuildError::MissingImage { name: name.clone(), camera: k, dir: images.to_path_buf() });
+            return Err(BuildError::MissingImage {
+                name: name.clone(),
+                camera: k,
+                dir: images.to_path_buf(),
+            });
         }
         let (w, h) = crate::texture::decode::probe_size(&ImageSource::File(path))
             .map_err(|e| BuildError::Invalid(e.to_string()))?;
@@ -73,7 +87,11 @@ pub fn read(bundle: &Path, images: &Path) -> Result<Rig, BuildError> {
             fy: f.abs(),
             cx: f64::from(w) / 2.0,
             cy: f64::from(h) / 2.0,
-            distortion: if k1 == 0.0 && k2 == 0.0 { Distortion::None } else { Distortion::Radial2 { k1, k2 } },
+            distortion: if k1 == 0.0 && k2 == 0.0 {
+                Distortion::None
+            } else {
+                Distortion::Radial2 { k1, k2 }
+            },
         };
         for i in 0..3 {
             for j in 0..3 {
@@ -93,7 +111,10 @@ pub fn write(rig: &Rig, dir: &Path) -> Result<(), BuildError> {
         let i = &c.intr;
         let centred = (i.cx - f64::from(i.width) / 2.0).abs() < 1e-9
             && (i.cy - f64::from(i.height) / 2.0).abs() < 1e-9;
-        let radial = matches!(i.distortion, Distortion::None | Distortion::Radial1 { .. } | Distortion::Radial2 { .. });
+        let radial = matches!(
+            i.distortion,
+            Distortion::None | Distortion::Radial1 { .. } | Distortion::Radial2 { .. }
+        );
         if i.fx != i.fy || !centred || !radial {
             return Err(BuildError::Invalid(format!(
                 "camera of {} cannot be written as Bundler (needs fx = fy, centred principal point, radial distortion)",

@@ -9,11 +9,21 @@ use std::path::PathBuf;
 pub enum Distortion {
     None,
     /// One radial coefficient (SIMPLE_RADIAL).
-    Radial1 { k: f64 },
+    Radial1 {
+        k: f64,
+    },
     /// Two radial coefficients (RADIAL, and Bundler's `k1 k2`).
-    Radial2 { k1: f64, k2: f64 },
+    Radial2 {
+        k1: f64,
+        k2: f64,
+    },
     /// Two radial and two tangential coefficients (OPENCV).
-    OpenCv { k1: f64, k2: f64, p1: f64, p2: f64 },
+    OpenCv {
+        k1: f64,
+        k2: f64,
+        p1: f64,
+        p2: f64,
+    },
 }
 
 impl Distortion {
@@ -125,7 +135,12 @@ pub fn matrix_to_quat(m: [[f64; 3]; 3]) -> [f64; 4] {
 
 impl PhotoCamera {
     /// A camera at `centre` with the given world-to-camera rotation.
-    pub fn from_centre(image: String, r: [[f64; 3]; 3], centre: [f64; 3], intr: Intrinsics) -> Self {
+    pub fn from_centre(
+        image: String,
+        r: [[f64; 3]; 3],
+        centre: [f64; 3],
+        intr: Intrinsics,
+    ) -> Self {
         let t = [-dot(r[0], centre), -dot(r[1], centre), -dot(r[2], centre)];
         Self { image, r, t, intr }
     }

@@ -5,8 +5,8 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use super::cameras::{Distortion, Intrinsics, PhotoCamera, Rig, matrix_to_quat, quat_to_matrix};
 use super::BuildError;
+use super::cameras::{Distortion, Intrinsics, PhotoCamera, Rig, matrix_to_quat, quat_to_matrix};
 
 /// COLMAP's model ids and names, with their parameter counts.
 const MODELS: [(i32, &str, usize); 5] = [
@@ -23,7 +23,9 @@ fn intrinsics(model: i32, w: u32, h: u32, p: &[f64]) -> Intrinsics {
         1 => (p[0], p[1], p[2], p[3], Distortion::None),
         2 => (p[0], p[0], p[1], p[2], Distortion::Radial1 { k: p[3] }),
         3 => (p[0], p[0], p[1], p[2], Distortion::Radial2 { k1: p[3], k2: p[4] }),
-        _ => (p[0], p[1], p[2], p[3], Distortion::OpenCv { k1: p[4], k2: p[5], p1: p[6], p2: p[7] }),
+        _ => {
+            (p[0], p[1], p[2], p[3], Distortion::OpenCv { k1: p[4], k2: p[5], p1: p[6], p2: p[7] })
+        }
     };
     Intrinsics { width: w, height: h, fx, fy, cx, cy, distortion }
 }
@@ -56,7 +58,12 @@ fn read_text_file(path: &Path) -> Result<String, BuildError> {
     std::fs::read_to_string(path).map_err(|e| BuildError::file(path, e))
 }
 
-fn num<T: std::str::FromStr>(path: &Path, line: usize, tok: Option<&str>, what: &str) -> Result<T, BuildError> {
+fn num<T: std::str::FromStr>(
+    path: &Path,
+    line: usize,
+    tok: Option<&str>,
+    what: &str,
+) -> Result<T, BuildError> {
     let tok = tok.ok_or_else(|| BuildError::line(path, line, format!("missing {what}")))?;
     tok.parse().map_err(|_| BuildError::line(path, line, format!("bad {what} `{tok}`")))
 }
@@ -75,7 +82,11 @@ pub fn read_text(dir: &Path) -> Result<Rig, BuildError> {
         let id: i64 = num(&cpath, ln, it.next(), "camera id")?;
         let name = it.next().unwrap_or("");
         let Some(&(model, _, np)) = MODELS.iter().find(|m| m.1 == name) else {
-            return Err(BuildError::UnknownModel { path: cpath, line: ln as u64, model: name.into() });
+            return Err(BuildError::UnknownModel {
+                path: cpath,
+                line: ln as u64,
+                model: name.into(),
+            });
         };
         let w: u32 = num(&cpath, ln, it.next(), "width")?;
         let h: u32 = num(&cpath, ln, it.next(), "height")?;
@@ -116,7 +127,11 @@ pub fn read_text(dir: &Path) -> Result<Rig, BuildError> {
             return Err(BuildError::line(&ipath, ln, "missing image name"));
         }
         let Some(&i) = intr.get(&cam) else {
-            return Err(BuildError::line(&ipath, ln, format!("camera id {cam} is not in cameras.txt")));
+            return Err(BuildError::line(
+                &ipath,
+                ln,
+                format!("camera id {cam} is not in cameras.txt"),
+            ));
         };
         if !q.iter().chain(&t).all(|v| v.is_finite()) || q.iter().all(|&v| v == 0.0) {
             return Err(BuildError::line(&ipath, ln, "non-finite or zero pose"));
@@ -167,7 +182,13 @@ pub fn read_binary(dir: &Path) -> Result<Rig, BuildError> {
         let id = r.i32("camera id")?;
         let model = r.i32("model id")?;
         let Some(&(_, _, np)) = MODELS.iter().find(|m| m.0 == model) else {
-            return Err(BuildError::byte(&cpath, at + 4, format!("unknown camera model id {model} (supported: 0 SIMPLE_PINHOLE, 1 PINHOLE, 2 SIMPLE_RADIAL, 3 RADIAL, 4 OPENCV)")));
+            return Err(BuildError::byte(
+                &cpath,
+                at + 4,
+                format!(
+                    "unknown camera model id {model} (supported: 0 SIMPLE_PINHOLE, 1 PINHOLE, 2 SIMPLE_RADIAL, 3 RADIAL, 4 OPENCV)"
+                ),
+            ));
         };
         let w = r.u64("width")?;
         let h = r.u64("height")?;
@@ -214,7 +235,11 @@ pub fn read_binary(dir: &Path) -> Result<Rig, BuildError> {
             None => return Err(BuildError::byte(&ipath, r.o, "absurd 2-D point count")),
         }
         let Some(&i) = intr.get(&cam) else {
-            return Err(BuildError::byte(&ipath, at, format!("camera id {cam} is not in cameras.bin")));
+            return Err(BuildError::byte(
+                &ipath,
+                at,
+                format!("camera id {cam} is not in cameras.bin"),
+            ));
         };
         if !q.iter().chain(&t).all(|v| v.is_finite()) || q.iter().all(|&v| v == 0.0) {
             return Err(BuildError::byte(&ipath, at, "non-finite or zero pose"));
@@ -254,7 +279,16 @@ pub fn write_text(rig: &Rig, dir: &Path) -> Result<(), BuildError> {
             writeln!(
                 w,
                 "{} {:?} {:?} {:?} {:?} {:?} {:?} {:?} {} {}",
-                k + 1, q[0], q[1], q[2], q[3], c.t[0], c.t[1], c.t[2], k + 1, c.image
+                k + 1,
+                q[0],
+                q[1],
+                q[2],
+                q[3],
+                c.t[0],
+                c.t[1],
+                c.t[2],
+                k + 1,
+                c.image
             )?;
             writeln!(w)?;
         }

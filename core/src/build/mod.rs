@@ -28,11 +28,15 @@ pub enum BuildError {
     /// A binary file is malformed at a known byte offset.
     #[error("{path}: at byte {offset}: {msg}")]
     Byte { path: PathBuf, offset: u64, msg: String },
-    #[error("{path}:{line}: unknown camera model `{model}` (supported: SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV)")]
+    #[error(
+        "{path}:{line}: unknown camera model `{model}` (supported: SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV)"
+    )]
     UnknownModel { path: PathBuf, line: u64, model: String },
     #[error("image `{name}` of camera {camera} not found in {dir}")]
     MissingImage { name: String, camera: usize, dir: PathBuf },
-    #[error("{path}: not a COLMAP model folder (cameras.txt/images.txt or cameras.bin/images.bin) nor a Bundler bundle.out")]
+    #[error(
+        "{path}: not a COLMAP model folder (cameras.txt/images.txt or cameras.bin/images.bin) nor a Bundler bundle.out"
+    )]
     UnknownCameras { path: PathBuf },
     #[error("{0}")]
     Invalid(String),

@@ -37,7 +37,9 @@ pub fn face_adjacency(tris: &[[u32; 3]]) -> Vec<[u32; 3]> {
                 let (f0, k0) = (e.0 as usize, e.1 as usize);
                 let g = adj[f0][k0];
                 adj[f0][k0] = NONE;
-                if let Some(s) = adj.get_mut(g as usize).and_then(|a| a.iter_mut().find(|x| **x == f0 as u32)) {
+                if let Some(s) =
+                    adj.get_mut(g as usize).and_then(|a| a.iter_mut().find(|x| **x == f0 as u32))
+                {
                     *s = NONE;
                 }
             }
@@ -217,7 +219,11 @@ pub fn partition(
         cand.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
         // Several farthest points per round keep the number of rounds logarithmic in the chart
         // count; one per round, as in the paper, costs a full regrowth per chart.
-        let take = if rounds >= max_rounds { cand.iter().filter(|c| c.0.is_infinite()).count() } else { (seeds.len() / 2).max(1) };
+        let take = if rounds >= max_rounds {
+            cand.iter().filter(|c| c.0.is_infinite()).count()
+        } else {
+            (seeds.len() / 2).max(1)
+        };
         let before = seeds.len();
         let mut blocked = vec![false; nf];
         for &(_, f) in cand.iter().take(take) {

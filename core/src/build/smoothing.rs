@@ -80,10 +80,12 @@ pub fn sample(s: &TileStore, p: [f64; 2]) -> Rgb {
     let (x0, y0) = (x.floor() as u32, y.floor() as u32);
     let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
     let (fx, fy) = (x - f64::from(x0), y - f64::from(y0));
-    let (a, b, c, d) = (read_rgb(s, x0, y0), read_rgb(s, x1, y0), read_rgb(s, x0, y1), read_rgb(s, x1, y1));
+    let (a, b, c, d) =
+        (read_rgb(s, x0, y0), read_rgb(s, x1, y0), read_rgb(s, x0, y1), read_rgb(s, x1, y1));
     let mut out = [0.0; 3];
     for k in 0..3 {
-        out[k] = (a[k] * (1.0 - fx) + b[k] * fx) * (1.0 - fy) + (c[k] * (1.0 - fx) + d[k] * fx) * fy;
+        out[k] =
+            (a[k] * (1.0 - fx) + b[k] * fx) * (1.0 - fy) + (c[k] * (1.0 - fx) + d[k] * fx) * fy;
     }
     out
 }
@@ -126,7 +128,15 @@ impl ChartGrid {
 /// `active` texels are relaxed; neighbours outside `active ∪ fixed` mirror the centre (a
 /// Neumann border, so the chart's outline does not pull the correction to zero). Stops when the
 /// mean squared velocity falls below `tol` or after `max_iter` sweeps; returns the sweeps run.
-pub fn relax(p: &mut [Rgb], active: &[bool], fixed: &[bool], w: usize, h: usize, tol: f64, max_iter: u32) -> u32 {
+pub fn relax(
+    p: &mut [Rgb],
+    active: &[bool],
+    fixed: &[bool],
+    w: usize,
+    h: usize,
+    tol: f64,
+    max_iter: u32,
+) -> u32 {
     let n = w * h;
     let mut v = vec![[0.0f64; 3]; n];
     let mut lap = vec![[0.0f64; 3]; n];
@@ -146,10 +156,26 @@ pub fn relax(p: &mut [Rgb], active: &[bool], fixed: &[bool], w: usize, h: usize,
                     s[k] += q[k] - c[k];
                 }
             };
-            if x > 0 { add(i - 1) } else { add(i) }
-            if x + 1 < w { add(i + 1) } else { add(i) }
-            if y > 0 { add(i - w) } else { add(i) }
-            if y + 1 < h { add(i + w) } else { add(i) }
+            if x > 0 {
+                add(i - 1)
+            } else {
+                add(i)
+            }
+            if x + 1 < w {
+                add(i + 1)
+            } else {
+                add(i)
+            }
+            if y > 0 {
+                add(i - w)
+            } else {
+                add(i)
+            }
+            if y + 1 < h {
+                add(i + w)
+            } else {
+                add(i)
+            }
             lap[i] = s;
         }
         let mut e = 0.0;
@@ -201,7 +227,13 @@ pub fn diffuse(g: &ChartGrid, tol: f64, max_iter: u32) -> (Vec<Rgb>, u32) {
             break;
         }
         let (cw, ch) = (l.w.div_ceil(2), l.h.div_ceil(2));
-        let mut c = Level { w: cw, h: ch, p: vec![[0.0; 3]; cw * ch], fixed: vec![false; cw * ch], active: vec![false; cw * ch] };
+        let mut c = Level {
+            w: cw,
+            h: ch,
+            p: vec![[0.0; 3]; cw * ch],
+            fixed: vec![false; cw * ch],
+            active: vec![false; cw * ch],
+        };
         for y in 0..ch {
             for x in 0..cw {
                 let mut s = [0.0; 3];
@@ -251,6 +283,7 @@ pub fn diffuse(g: &ChartGrid, tol: f64, max_iter: u32) -> (Vec<Rgb>, u32) {
         sweeps += relax(&mut l.p, &l.active, &l.fixed, l.w, l.h, tol, max_iter);
     }
     let top = levels.swap_remove(0);
-    let out = (0..n).map(|i| if g.inside[i] || top.fixed[i] { top.p[i] } else { [0.0; 3] }).collect();
+    let out =
+        (0..n).map(|i| if g.inside[i] || top.fixed[i] { top.p[i] } else { [0.0; 3] }).collect();
     (out, sweeps)
 }

@@ -26,7 +26,8 @@ fn colmap_text_binary_and_bundler_project_alike() {
     for k in 0..6 {
         assert!(matches!(a.cameras[k].intr.distortion, Distortion::None) == (k % 2 == 0));
         for p in pts {
-            let (pa, pb, pc) = (a.cameras[k].project(p), b.cameras[k].project(p), c.cameras[k].project(p));
+            let (pa, pb, pc) =
+                (a.cameras[k].project(p), b.cameras[k].project(p), c.cameras[k].project(p));
             let (Some(pa), Some(pb), Some(pc)) = (pa, pb, pc) else { panic!("in front of all") };
             for d in 0..2 {
                 assert!((pa.0[d] - pb.0[d]).abs() < 1e-6, "text vs binary");
@@ -44,8 +45,16 @@ fn colmap_text_binary_and_bundler_project_alike() {
 fn hand_written_fixtures_follow_the_conventions() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    std::fs::write(d.join("cameras.txt"), "# c\n1 SIMPLE_PINHOLE 100 80 50 50 40\n2 OPENCV 100 80 60 60 50 40 0.1 0 0 0\n").unwrap();
-    std::fs::write(d.join("images.txt"), "# i\n1 1 0 0 0 0 0 0 1 a.png\n\n2 1 0 0 0 0 0 1 2 b.png\n1.0 2.0 -1\n").unwrap();
+    std::fs::write(
+        d.join("cameras.txt"),
+        "# c\n1 SIMPLE_PINHOLE 100 80 50 50 40\n2 OPENCV 100 80 60 60 50 40 0.1 0 0 0\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("images.txt"),
+        "# i\n1 1 0 0 0 0 0 0 1 a.png\n\n2 1 0 0 0 0 0 1 2 b.png\n1.0 2.0 -1\n",
+    )
+    .unwrap();
     let rig = colmap::read_text(d).unwrap();
     assert_eq!(rig.cameras.len(), 2);
     // A point on the optical axis lands on the principal point: pixel (50, 40), i.e. the corner
@@ -63,9 +72,14 @@ fn hand_written_fixtures_follow_the_conventions() {
     assert!(rig.cameras[0].project([0.0, 0.0, -1.0]).is_none(), "behind");
 
     // Bundler: identity rotation means looking down −z with y up.
-    let img = crate::texture::TileStore::create(d, 100, 80, crate::texture::PixelFormat::RGB8).unwrap();
+    let img =
+        crate::texture::TileStore::create(d, 100, 80, crate::texture::PixelFormat::RGB8).unwrap();
     crate::texture::encode::write_image(&img, &d.join("a.png"), &Default::default()).unwrap();
-    std::fs::write(d.join("bundle.out"), "# Bundle file v0.3\n1 0\n50 0 0\n1 0 0\n0 1 0\n0 0 1\n0 0 0\n").unwrap();
+    std::fs::write(
+        d.join("bundle.out"),
+        "# Bundle file v0.3\n1 0\n50 0 0\n1 0 0\n0 1 0\n0 0 1\n0 0 0\n",
+    )
+    .unwrap();
     std::fs::write(d.join("list.txt"), "a.png\n").unwrap();
     let b = bundler::read(&d.join("bundle.out"), d).unwrap();
     let (q, _) = b.cameras[0].project([0.2, 0.2, -2.0]).unwrap();
@@ -97,15 +111,32 @@ fn malformed_files_name_the_line_and_the_model() {
     std::fs::write(d.join("list.txt"), "missing.png\n").unwrap();
     let e = bundler::read(&d.join("bundle.out"), d).unwrap_err().to_string();
     assert!(e.contains("end of file"), "{e}");
-    std::fs::write(d.join("bundle.out"), "# Bundle file v0.3\n1 0\n50 0 0\n1 0 0\n0 1 0\n0 0 1\n0 0 0\n").unwrap();
+    std::fs::write(
+        d.join("bundle.out"),
+        "# Bundle file v0.3\n1 0\n50 0 0\n1 0 0\n0 1 0\n0 0 1\n0 0 0\n",
+    )
+    .unwrap();
     let e = bundler::read(&d.join("bundle.out"), d).unwrap_err().to_string();
     assert!(e.contains("missing.png") && e.contains("not found"), "{e}");
 }
 
 fn camera_looking_down_z(centre: [f64; 3]) -> PhotoCamera {
-    let intr = Intrinsics { width: 64, height: 64, fx: 64.0, fy: 64.0, cx: 32.0, cy: 32.0, distortion: Distortion::None };
+    let intr = Intrinsics {
+        width: 64,
+        height: 64,
+        fx: 64.0,
+        fy: 64.0,
+        cx: 32.0,
+        cy: 32.0,
+        distortion: Distortion::None,
+    };
     // Looking along −z from above: x right, y down = −y world, z forward = −z world.
-    PhotoCamera::from_centre("a.png".into(), [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]], centre, intr)
+    PhotoCamera::from_centre(
+        "a.png".into(),
+        [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]],
+        centre,
+        intr,
+    )
 }
 
 #[test]
@@ -114,12 +145,24 @@ fn visibility_rejects_occluded_back_facing_and_out_of_frame_faces() {
     // z = 1 (occludes part of face 0 only); face 2: a triangle below face 0, hidden; face 3:
     // facing down (back face); face 4: far outside the frame; face 5: a sub-pixel face.
     let positions = vec![
-        [-0.2, -0.2, 0.0], [0.2, -0.2, 0.0], [0.0, 0.2, 0.0],
-        [-0.02, -0.02, 1.0], [0.02, -0.02, 1.0], [0.0, 0.02, 1.0],
-        [-0.05, -0.05, -1.0], [0.05, -0.05, -1.0], [0.0, 0.05, -1.0],
-        [0.3, 0.3, 0.0], [0.3, 0.35, 0.0], [0.35, 0.3, 0.0],
-        [50.0, 0.0, 0.0], [51.0, 0.0, 0.0], [50.0, 1.0, 0.0],
-        [0.3, -0.3, 0.5], [0.3001, -0.3, 0.5], [0.3, -0.2999, 0.5],
+        [-0.2, -0.2, 0.0],
+        [0.2, -0.2, 0.0],
+        [0.0, 0.2, 0.0],
+        [-0.02, -0.02, 1.0],
+        [0.02, -0.02, 1.0],
+        [0.0, 0.02, 1.0],
+        [-0.05, -0.05, -1.0],
+        [0.05, -0.05, -1.0],
+        [0.0, 0.05, -1.0],
+        [0.3, 0.3, 0.0],
+        [0.3, 0.35, 0.0],
+        [0.35, 0.3, 0.0],
+        [50.0, 0.0, 0.0],
+        [51.0, 0.0, 0.0],
+        [50.0, 1.0, 0.0],
+        [0.3, -0.3, 0.5],
+        [0.3001, -0.3, 0.5],
+        [0.3, -0.2999, 0.5],
     ];
     let tris = vec![[0, 1, 2], [3, 4, 5], [6, 7, 8], [9, 10, 11], [12, 13, 14], [15, 16, 17]];
     let cam = camera_looking_down_z([0.0, 0.0, 3.0]);
@@ -145,7 +188,10 @@ fn partition_covers_every_seen_face_once_with_connected_charts_that_see_them() {
         let c = p.face_chart[f];
         assert_eq!(c == NONE, vis.of(f).is_empty(), "face {f}: seen faces only, all of them");
         if c != NONE {
-            assert!(vis.of(f).contains(&p.chart_camera[c as usize]), "the chart's photo sees the face");
+            assert!(
+                vis.of(f).contains(&p.chart_camera[c as usize]),
+                "the chart's photo sees the face"
+            );
         }
     }
     // Connected: a flood over same-chart neighbours from each chart's first face reaches all.

@@ -23,7 +23,9 @@ use crate::texture::coords::texel_to_uv;
 use crate::texture::encode::{EncodeOptions, write_image};
 use crate::texture::gutter::{Coverage, dilate};
 use crate::texture::raster::{PixelRect, rasterize_triangle};
-use crate::texture::resample::{FaceMapping, ResampleOptions, ResampleReport, push_pull, resample_sheets};
+use crate::texture::resample::{
+    FaceMapping, ResampleOptions, ResampleReport, push_pull, resample_sheets,
+};
 use crate::texture::{ImageFormat, TileStore, decode};
 
 /// Options of a build run.
@@ -144,7 +146,10 @@ pub fn build(
     let model = crate::io::read_model(mesh)?;
     let rig = read_rig(cameras, images).map_err(berr)?;
     if rig.cameras.is_empty() {
-        return Err(berr(BuildError::Invalid(format!("{}: no registered camera", cameras.display()))));
+        return Err(berr(BuildError::Invalid(format!(
+            "{}: no registered camera",
+            cameras.display()
+        ))));
     }
     // Every photo must exist and match its calibration's size (a wrong folder or a resized
     // photo would otherwise texture silently wrong).
@@ -152,7 +157,11 @@ pub fn build(
     for (k, c) in rig.cameras.iter().enumerate() {
         let p = images.join(&c.image);
         if !p.is_file() {
-            return Err(berr(BuildError::MissingImage { name: c.image.clone(), camera: k, dir: images.to_path_buf() }));
+            return Err(berr(BuildError::MissingImage {
+                name: c.image.clone(),
+                camera: k,
+                dir: images.to_path_buf(),
+            }));
         }
         let (w, h) = decode::probe_size(&ImageSource::File(p.clone()))?;
         if (w, h) != (c.intr.width, c.intr.height) {
@@ -241,7 +250,9 @@ pub fn build(
     let mut in_sizes: Vec<(u32, u32)> =
         rig.cameras.iter().map(|c| (c.intr.width, c.intr.height)).collect();
     in_sizes.push((FILL, FILL));
-    let max_side = cfg.max_sheet_size.unwrap_or_else(|| in_sizes.iter().map(|s| s.0.max(s.1)).max().unwrap_or(1024));
+    let max_side = cfg
+        .max_sheet_size
+        .unwrap_or_else(|| in_sizes.iter().map(|s| s.0.max(s.1)).max().unwrap_or(1024));
     let area: Vec<f64> = geom.area.clone();
     let li = LayoutInput {
         corner_vert: &corner_vert,
@@ -280,7 +291,9 @@ pub fn build(
     // Unused photos get a 1×1 placeholder so sheet indices stay camera indices.
     let first_used = used.iter().position(|&u| u);
     let format = match first_used {
-        Some(k) => decode::decode_to_store(&ImageSource::File(photo_paths[k].clone()), &work_dir)?.format(),
+        Some(k) => {
+            decode::decode_to_store(&ImageSource::File(photo_paths[k].clone()), &work_dir)?.format()
+        }
         None => crate::texture::PixelFormat::RGB8,
     };
     let mut photos: Vec<TileStore> = Vec::with_capacity(n_cams + 1);
@@ -291,7 +304,15 @@ pub fn build(
             TileStore::create(&work_dir, 1, 1, format)?
         });
     }
-    let fill_color = fill_colour(&unseen, &adj, &part.face_chart, &part.chart_camera, &rig.cameras, &photos, &geom);
+    let fill_color = fill_colour(
+        &unseen,
+        &adj,
+        &part.face_chart,
+        &part.chart_camera,
+        &rig.cameras,
+        &photos,
+        &geom,
+    );
     let mut fill = TileStore::create(&work_dir, FILL, FILL, format)?;
     for y in 0..FILL {
         for x in 0..FILL {
@@ -357,19 +378,40 @@ pub fn build(
     times.gutter_ms = ms(t);
 
     let t = Instant::now();
-    let protect: Vec<PathBuf> = std::iter::once(mesh.to_path_buf()).chain(photo_paths.iter().cloned()).collect();
-    let enc = EncodeOptions { format: Some(cfg.texture_format), jpeg_quality: 92, protect: protect.clone() };
+    let protect: Vec<PathBuf> =
+        std::iter::once(mesh.to_path_buf()).chain(photo_paths.iter().cloned()).collect();
+    let enc = EncodeOptions {
+        format: Some(cfg.texture_format),
+        jpeg_quality: 92,
+        protect: protect.clone(),
+    };
     let mut sheet_paths = Vec::new();
     for (k, store) in res.sheets.iter().enumerate() {
         let p = output_sheet_path(output, k, cfg.texture_format);
         write_image(store, &p, &enc)?;
         sheet_paths.push(p);
     }
-    let out_model = output_model(&model, &corner_vert, &packed.vert_uv, &packed.face_sheet, &packed.sheet_sizes, &sheet_paths);
+    let out_model = output_model(
+        &model,
+        &corner_vert,
+        &packed.vert_uv,
+        &packed.face_sheet,
+        &packed.sheet_sizes,
+        &sheet_paths,
+    );
     crate::io::write_model(&out_model, output, &WriteOptions { protect })?;
     times.write_ms = ms(t);
 
-    let eff = efficiencies(&tris, positions, &corner_vert, &packed.vert_uv, &face_chart, n_pack_charts, &packed.sheet_sizes, &unseen);
+    let eff = efficiencies(
+        &tris,
+        positions,
+        &corner_vert,
+        &packed.vert_uv,
+        &face_chart,
+        n_pack_charts,
+        &packed.sheet_sizes,
+        &unseen,
+    );
     let texels: u64 = packed.sheet_sizes.iter().map(|&(w, h)| u64::from(w) * u64::from(h)).sum();
     times.total_ms = ms(t_all);
     Ok(BuildReport {
@@ -556,7 +598,8 @@ fn smooth(
         let store = &sheets[sheet];
         let (w, h) = (store.width(), store.height());
         // The chart's box in pixels (row 0 at the top), one texel of margin.
-        let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+        let (mut x0, mut x1, mut y0, mut y1) =
+            (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
         for &f in &faces[c] {
             for k in 0..3 {
                 let p = out_uv(f as usize, k);
@@ -587,7 +630,8 @@ fn smooth(
             let (f, k) = (f as usize, k as usize);
             let other = chart_camera[face_chart[g as usize] as usize] as usize;
             let uv = [0, 1, 2].map(|q| out_uv(f, q));
-            let (pa, pb) = (positions[tris[f][k] as usize], positions[tris[f][(k + 1) % 3] as usize]);
+            let (pa, pb) =
+                (positions[tris[f][k] as usize], positions[tris[f][(k + 1) % 3] as usize]);
             let ea = uv[k];
             let eb = uv[(k + 1) % 3];
             let len = ((eb[0] - ea[0]).powi(2) + (eb[1] - ea[1]).powi(2)).sqrt();
@@ -642,7 +686,11 @@ fn output_model(
         .map(|(p, &size)| Sheet { image: ImageSource::File(p.clone()), size: Some(size) })
         .collect();
     out.materials = (0..out.sheets.len())
-        .map(|k| Material { name: format!("atlas{k}"), sheet: Some(SheetId::from_usize(k)), extra: Vec::new() })
+        .map(|k| Material {
+            name: format!("atlas{k}"),
+            sheet: Some(SheetId::from_usize(k)),
+            extra: Vec::new(),
+        })
         .collect();
     let mut uvs = Vec::new();
     let mut new_id = vec![u32::MAX; vert_uv.len()];
@@ -683,14 +731,17 @@ fn efficiencies(
         is_unseen[f] = true;
     }
     let (mut a3, mut a2, mut l2sum) = (0.0, 0.0, 0.0);
-    let mut boxes = vec![[f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY]; n_charts];
+    let mut boxes =
+        vec![[f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY]; n_charts];
     for (f, t) in tris.iter().enumerate() {
         if is_unseen[f] {
             continue;
         }
         let q = t.map(|v| positions[v as usize]);
         let s = [0, 1, 2].map(|k| uv[corner_vert[3 * f + k] as usize]);
-        let area2 = ((s[1][0] - s[0][0]) * (s[2][1] - s[0][1]) - (s[2][0] - s[0][0]) * (s[1][1] - s[0][1])) / 2.0;
+        let area2 = ((s[1][0] - s[0][0]) * (s[2][1] - s[0][1])
+            - (s[2][0] - s[0][0]) * (s[1][1] - s[0][1]))
+            / 2.0;
         let (_, area3) = visibility::face_normal_area(q);
         let b = &mut boxes[face_chart[f] as usize];
         for p in &s {
@@ -702,8 +753,18 @@ fn efficiencies(
         if area2.abs() < 1e-300 || area3 <= 0.0 {
             continue;
         }
-        let ss: [f64; 3] = [0, 1, 2].map(|d| (q[0][d] * (s[1][1] - s[2][1]) + q[1][d] * (s[2][1] - s[0][1]) + q[2][d] * (s[0][1] - s[1][1])) / (2.0 * area2));
-        let st: [f64; 3] = [0, 1, 2].map(|d| (q[0][d] * (s[2][0] - s[1][0]) + q[1][d] * (s[0][0] - s[2][0]) + q[2][d] * (s[1][0] - s[0][0])) / (2.0 * area2));
+        let ss: [f64; 3] = [0, 1, 2].map(|d| {
+            (q[0][d] * (s[1][1] - s[2][1])
+                + q[1][d] * (s[2][1] - s[0][1])
+                + q[2][d] * (s[0][1] - s[1][1]))
+                / (2.0 * area2)
+        });
+        let st: [f64; 3] = [0, 1, 2].map(|d| {
+            (q[0][d] * (s[2][0] - s[1][0])
+                + q[1][d] * (s[0][0] - s[2][0])
+                + q[2][d] * (s[1][0] - s[0][0]))
+                / (2.0 * area2)
+        });
         let a = ss.iter().map(|v| v * v).sum::<f64>();
         let c = st.iter().map(|v| v * v).sum::<f64>();
         l2sum += 0.5 * (a + c) * area3;
@@ -717,7 +778,8 @@ fn efficiencies(
     } else {
         0.0
     };
-    let rects: f64 = boxes.iter().filter(|b| b[0].is_finite()).map(|b| (b[2] - b[0]) * (b[3] - b[1])).sum();
+    let rects: f64 =
+        boxes.iter().filter(|b| b[0].is_finite()).map(|b| (b[2] - b[0]) * (b[3] - b[1])).sum();
     let texels: f64 = sheet_sizes.iter().map(|&(w, h)| f64::from(w) * f64::from(h)).sum();
     let intra = if rects > 0.0 { a2 / rects } else { 0.0 };
     let inter = if texels > 0.0 { rects / texels } else { 0.0 };

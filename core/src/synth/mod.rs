@@ -18,8 +18,8 @@ mod color;
 mod mesh;
 mod pack;
 mod paint;
-mod rng;
 pub mod rig;
+mod rng;
 #[cfg(test)]
 mod tests;
 

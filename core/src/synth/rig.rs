@@ -31,7 +31,16 @@ pub struct RigParams {
 
 impl Default for RigParams {
     fn default() -> Self {
-        Self { shape: Shape::Blob, faces: 4000, photos: 12, width: 640, height: 480, gain_spread: 0.12, k1: -0.04, seed: 1 }
+        Self {
+            shape: Shape::Blob,
+            faces: 4000,
+            photos: 12,
+            width: 640,
+            height: 480,
+            gain_spread: 0.12,
+            k1: -0.04,
+            seed: 1,
+        }
     }
 }
 
@@ -69,7 +78,11 @@ pub fn rig_cameras(p: &RigParams, m: &mesh::Mesh) -> Vec<PhotoCamera> {
             // Synthetic image-plane y is up; OpenCV's y is down.
             let r = [c.right, [-c.up[0], -c.up[1], -c.up[2]], c.forward];
             let f = c.focal * 0.5 * f64::from(p.width);
-            let distortion = if k % 2 == 1 && p.k1 != 0.0 { Distortion::Radial2 { k1: p.k1, k2: 0.0 } } else { Distortion::None };
+            let distortion = if k % 2 == 1 && p.k1 != 0.0 {
+                Distortion::Radial2 { k1: p.k1, k2: 0.0 }
+            } else {
+                Distortion::None
+            };
             let intr = Intrinsics {
                 width: p.width,
                 height: p.height,
@@ -85,7 +98,12 @@ pub fn rig_cameras(p: &RigParams, m: &mesh::Mesh) -> Vec<PhotoCamera> {
 }
 
 /// Renders one photo: z-buffered, perspective-correct true colour times `gain`, black background.
-pub fn render(m: &mesh::Mesh, cam: &PhotoCamera, gain: [f64; 3], work: &Path) -> Result<TileStore, crate::texture::TextureError> {
+pub fn render(
+    m: &mesh::Mesh,
+    cam: &PhotoCamera,
+    gain: [f64; 3],
+    work: &Path,
+) -> Result<TileStore, crate::texture::TextureError> {
     let (w, h) = (cam.intr.width, cam.intr.height);
     let mut store = TileStore::create(work, w, h, PixelFormat::RGB8)?;
     let n = (w * h) as usize;
@@ -135,7 +153,9 @@ pub fn render(m: &mesh::Mesh, cam: &PhotoCamera, gain: [f64; 3], work: &Path) ->
             }
             let t = m.tris[f as usize];
             let p = [0, 1, 2].map(|k| {
-                b[0] * m.positions[t[0] as usize][k] + b[1] * m.positions[t[1] as usize][k] + b[2] * m.positions[t[2] as usize][k]
+                b[0] * m.positions[t[0] as usize][k]
+                    + b[1] * m.positions[t[1] as usize][k]
+                    + b[2] * m.positions[t[2] as usize][k]
             });
             let c = true_color(p);
             let px = store.pixel_mut(i, j);
@@ -156,13 +176,20 @@ pub fn generate_rig(p: &RigParams, out: &Path) -> Result<RigOutput, super::Synth
     let m = mesh::build(p.shape, p.faces, p.seed);
     let cams = rig_cameras(p, &m);
     let images = out.join("images");
-    for d in [out.to_path_buf(), images.clone(), out.join("sparse"), out.join("sparse_bin"), out.join("bundle")] {
+    for d in [
+        out.to_path_buf(),
+        images.clone(),
+        out.join("sparse"),
+        out.join("sparse_bin"),
+        out.join("bundle"),
+    ] {
         std::fs::create_dir_all(&d).map_err(|e| err(format!("{}: {e}", d.display())))?;
     }
     let gains: Vec<[f64; 3]> = (0..cams.len())
         .map(|k| {
             let e = 1.0 + p.gain_spread * rnd(p.seed ^ 0x6A1, k as u64, 0);
-            [0, 1, 2].map(|c| e * (1.0 + 0.3 * p.gain_spread * rnd(p.seed ^ 0x6A1, k as u64, c + 1)))
+            [0, 1, 2]
+                .map(|c| e * (1.0 + 0.3 * p.gain_spread * rnd(p.seed ^ 0x6A1, k as u64, c + 1)))
         })
         .collect();
     let rendered: Result<Vec<()>, super::SynthError> = {
@@ -171,7 +198,8 @@ pub fn generate_rig(p: &RigParams, out: &Path) -> Result<RigOutput, super::Synth
             .zip(&gains)
             .map(|(c, &g)| {
                 let s = render(&m, c, g, out).map_err(err)?;
-                crate::texture::encode::write_image(&s, &images.join(&c.image), &Default::default()).map_err(err)
+                crate::texture::encode::write_image(&s, &images.join(&c.image), &Default::default())
+                    .map_err(err)
             })
             .collect()
     };
@@ -182,7 +210,11 @@ pub fn generate_rig(p: &RigParams, out: &Path) -> Result<RigOutput, super::Synth
     crate::build::bundler::write(&rig, &out.join("bundle")).map_err(err)?;
     let model = Model {
         positions: m.positions.clone(),
-        faces: m.tris.iter().map(|t| Face { v: t.map(VertexId), uv: None, n: None, material: None }).collect(),
+        faces: m
+            .tris
+            .iter()
+            .map(|t| Face { v: t.map(VertexId), uv: None, n: None, material: None })
+            .collect(),
         ..Model::default()
     };
     let mesh_path = out.join("mesh.obj");

@@ -27,8 +27,8 @@ impl Packer for RowsPacker {
         // allowed turn.
         let turn = |i: usize| items[i].allowed_turns().next().unwrap_or(0);
         let dims = |i: usize| items[i].footprint.rotated_dims(turn(i));
-        let (mut order, oversized): (Vec<u32>, Vec<u32>) = (0..items.len() as u32)
-            .partition(|&i| {
+        let (mut order, oversized): (Vec<u32>, Vec<u32>) =
+            (0..items.len() as u32).partition(|&i| {
                 let (w, h) = dims(i as usize);
                 w <= sw && h <= sh && fits_sheet(&items[i as usize], max_sheet)
             });

@@ -23,8 +23,10 @@ pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
     stage.finish();
     if let Some(p) = &args.report {
         let json = serde_json::to_string_pretty(&report)?;
-        scanatlas_core::atomic::write_atomic::<std::io::Error, _>(p, &[], |w| w.write_all(json.as_bytes()))
-            .with_context(|| format!("writing {}", p.display()))?;
+        scanatlas_core::atomic::write_atomic::<std::io::Error, _>(p, &[], |w| {
+            w.write_all(json.as_bytes())
+        })
+        .with_context(|| format!("writing {}", p.display()))?;
     }
     if !quiet {
         eprintln!(
