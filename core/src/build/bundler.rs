@@ -3,6 +3,9 @@
 //! pixel `(x, y)` of Bundler is `(x + W/2, H/2 − y)` in corner-origin y-down pixels. Image sizes
 //! are not stored, so they are probed from the photos' headers.
 
+// Loops over the three coordinates index several arrays at once; iterators would hide that.
+#![allow(clippy::needless_range_loop)]
+
 use std::path::Path;
 
 use super::BuildError;

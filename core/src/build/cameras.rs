@@ -176,7 +176,7 @@ impl PhotoCamera {
     #[inline]
     pub fn project(&self, p: [f64; 3]) -> Option<([f64; 2], f64)> {
         let c = self.to_camera(p);
-        if !(c[2] > 0.0) {
+        if c[2].is_nan() || c[2] <= 0.0 {
             return None;
         }
         let (x, y) = self.intr.distortion.apply(c[0] / c[2], c[1] / c[2]);

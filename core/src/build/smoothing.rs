@@ -9,6 +9,9 @@
 //! the starting guess of the next finer grid, relax again, down to full resolution. The
 //! correction is added to the chart's texels.
 
+// Loops over the three coordinates index several arrays at once; iterators would hide that.
+#![allow(clippy::needless_range_loop)]
+
 use crate::texture::{SampleType, TileStore};
 
 /// The paper's damping and step.
