@@ -1,5 +1,7 @@
 //! Tests of the build area: camera parsers and conventions, visibility, partition properties.
 
+#![allow(clippy::needless_range_loop)] // face loops index several per-face arrays
+
 use super::cameras::{Distortion, Intrinsics, PhotoCamera, Rig};
 use super::partition::{FaceGeom, NONE, face_adjacency, partition};
 use super::visibility::{VisibilityOptions, compute};
