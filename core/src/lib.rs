@@ -5,6 +5,7 @@
 //! user data, never reorders or drops input faces, and never holds a whole texture sheet in RAM.
 
 pub mod atomic;
+pub mod build;
 pub mod defrag;
 pub mod geometry;
 pub mod index;

@@ -44,6 +44,59 @@ pub enum Command {
     Convert(ConvertArgs),
     /// Lists every plugin (scorers, solvers, packers) with its parameters and their defaults.
     Plugins(PluginsArgs),
+    /// Builds a texture atlas from registered photographs (projective texture atlas).
+    Build(BuildArgs),
+    /// Writes a synthetic photo rig (mesh, photos, COLMAP text/binary, Bundler) with known colour.
+    SynthRig(SynthRigArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct BuildArgs {
+    /// The mesh (.ply, .obj, .gltf, .glb); any UVs it has are ignored.
+    #[arg(long)]
+    pub mesh: PathBuf,
+    /// A COLMAP sparse model folder (text or binary) or a Bundler bundle.out (with list.txt).
+    #[arg(long)]
+    pub cameras: PathBuf,
+    /// Folder of the photos named by the cameras.
+    #[arg(long)]
+    pub images: PathBuf,
+    /// Output model (.obj, .gltf, .glb, .ply); sheets are written beside it.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Output sheet side limit in pixels (default: the largest photo's side).
+    #[arg(long, value_name = "S")]
+    pub max_sheet_size: Option<u32>,
+    /// Packer plugin (`rows`, the paper's; `horizon`; `skyline`).
+    #[arg(long, default_value = "rows")]
+    pub packer: String,
+    /// Skip the colour-continuity diffusion.
+    #[arg(long)]
+    pub no_smoothing: bool,
+    /// Skip the frequency-based chart splitting.
+    #[arg(long)]
+    pub no_frequency_split: bool,
+    /// Write the full run report as JSON to this file.
+    #[arg(long, value_name = "FILE.json")]
+    pub report: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
+pub struct SynthRigArgs {
+    /// Output folder.
+    pub out_dir: PathBuf,
+    #[arg(long, value_enum, default_value = "blob")]
+    pub shape: ShapeArg,
+    #[arg(long, default_value_t = 4000)]
+    pub faces: u32,
+    #[arg(long, default_value_t = 12)]
+    pub photos: u32,
+    #[arg(long, default_value_t = 640)]
+    pub width: u32,
+    #[arg(long, default_value_t = 480)]
+    pub height: u32,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
 }
 
 #[derive(Debug, Args)]

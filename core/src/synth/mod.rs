@@ -18,6 +18,7 @@ mod color;
 mod mesh;
 mod pack;
 mod paint;
+pub mod rig;
 mod rng;
 #[cfg(test)]
 mod tests;

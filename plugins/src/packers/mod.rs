@@ -2,12 +2,14 @@
 //! packer on exact footprints, and `skyline`, a bottom-left skyline packer on bounding boxes.
 
 pub mod horizon;
+pub mod rows;
 pub mod skyline;
 
 #[cfg(test)]
 mod tests;
 
 pub use horizon::HorizonPacker;
+pub use rows::RowsPacker;
 pub use skyline::SkylinePacker;
 
 use scanatlas_core::plugin::{PluginError, Registry};
@@ -16,7 +18,8 @@ use scanatlas_core::plugin::{PluginError, Registry};
 pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
     let a = horizon::register(registry);
     let b = skyline::register(registry);
-    a.and(b)
+    let c = rows::register(registry);
+    a.and(b).and(c)
 }
 
 /// SplitMix64: a tiny seeded generator whose output depends only on the seed, on every platform.

@@ -55,6 +55,7 @@ fn packers() -> Vec<(&'static str, Box<dyn Packer>)> {
         ("horizon", Box::new(HorizonPacker::default())),
         ("horizon-wide", Box::new(HorizonPacker { square: false, ..HorizonPacker::default() })),
         ("skyline", Box::new(SkylinePacker)),
+        ("rows", Box::new(super::RowsPacker)),
     ]
 }
 

@@ -1,5 +1,6 @@
 //! Dispatch of the subcommands.
 
+mod build;
 mod config;
 mod convert;
 mod defrag;
@@ -7,6 +8,7 @@ mod demo;
 mod plugins;
 mod stats;
 mod synth;
+mod synth_rig;
 
 use anyhow::Result;
 
@@ -34,5 +36,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Convert(a) => convert::run(&a, quiet),
         Command::Defrag(a) => defrag::run(&a, quiet),
         Command::Plugins(a) => plugins::run(&a),
+        Command::Build(a) => build::run(&a, quiet),
+        Command::SynthRig(a) => synth_rig::run(&a, quiet),
     }
 }

@@ -1,0 +1,787 @@
+//! `build`: a textured model from a mesh and registered photos (the projective texture atlas
+//! of Velho & Sossai). Stages: load → cameras → visibility → partition → projective UVs → pack
+//! (a `Packer` plugin through [`pack_layout`]) → texture from the photos per output tile
+//! ([`resample_sheets`], photo texels copied verbatim since every chart is an integer placement
+//! of its photo region) → colour smoothing → gutters → write, with a serde report.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use super::PipelineError;
+use super::convert::output_sheet_path;
+use crate::build::cameras::PhotoCamera;
+use crate::build::partition::{FaceGeom, NONE, face_adjacency, partition};
+use crate::build::smoothing::{self, ChartGrid, Rgb};
+use crate::build::visibility::{self, VisibilityOptions};
+use crate::build::{BuildError, read_rig};
+use crate::index::{MaterialId, SheetId, UvId};
+use crate::io::WriteOptions;
+use crate::model::{ImageSource, Material, Model, Origin, Sheet};
+use crate::pack::{LayoutInput, PackOptions, PackReport, pack_layout};
+use crate::plugin::{Params, Registry};
+use crate::texture::coords::texel_to_uv;
+use crate::texture::encode::{EncodeOptions, write_image};
+use crate::texture::gutter::{Coverage, dilate};
+use crate::texture::raster::{PixelRect, rasterize_triangle};
+use crate::texture::resample::{
+    FaceMapping, ResampleOptions, ResampleReport, push_pull, resample_sheets,
+};
+use crate::texture::{ImageFormat, TileStore, decode};
+
+/// Options of a build run.
+#[derive(Clone, Debug)]
+pub struct BuildConfig {
+    pub packer: String,
+    pub packer_params: Params,
+    /// Output sheet side limit; `None` = the largest photo.
+    pub max_sheet_size: Option<u32>,
+    pub smoothing: bool,
+    pub frequency_split: bool,
+    /// Free texels around each chart (the paper's 1-texel border, doubled for bilinear mips).
+    pub padding: u32,
+    pub visibility: VisibilityOptions,
+    /// Bound on the adding/growing rounds of the partition.
+    pub max_rounds: u32,
+    pub texture_format: ImageFormat,
+    /// Folder of temporary tile files; `None` = beside the output.
+    pub work_dir: Option<PathBuf>,
+}
+
+impl Default for BuildConfig {
+    fn default() -> Self {
+        Self {
+            packer: "rows".into(),
+            packer_params: Params::new(),
+            max_sheet_size: None,
+            smoothing: true,
+            frequency_split: true,
+            padding: 2,
+            visibility: VisibilityOptions::default(),
+            max_rounds: 12,
+            texture_format: ImageFormat::Png,
+            work_dir: None,
+        }
+    }
+}
+
+/// Milliseconds per stage.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct BuildTimes {
+    pub load_ms: f64,
+    pub visibility_ms: f64,
+    pub partition_ms: f64,
+    pub parametrize_ms: f64,
+    pub pack_ms: f64,
+    pub texture_ms: f64,
+    pub smoothing_ms: f64,
+    pub gutter_ms: f64,
+    pub write_ms: f64,
+    pub total_ms: f64,
+}
+
+/// The paper's Table 1 and the rest of the run's figures.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct BuildReport {
+    pub mesh: PathBuf,
+    pub cameras: PathBuf,
+    pub output: PathBuf,
+    pub packer: String,
+    pub photos: usize,
+    pub faces: usize,
+    pub vertices: usize,
+    /// Faces no photo sees: kept, textured with a fill colour from their seen neighbours.
+    pub unseen_faces: usize,
+    pub fill_color: [f64; 3],
+    pub visibility_found_per_pass: Vec<u64>,
+    pub partition_rounds: u32,
+    pub charts_before_merge: usize,
+    pub charts: usize,
+    pub distortion: f64,
+    /// Sander's L2 stretch efficiency `1/L2²` (areas normalized): 1 = no stretch.
+    pub stretch_efficiency: f64,
+    /// Chart areas over their bounding rectangles.
+    pub intra_rectangle_efficiency: f64,
+    /// Bounding rectangles over all output texels.
+    pub inter_rectangle_efficiency: f64,
+    pub packing_efficiency: f64,
+    pub texture_efficiency: f64,
+    pub texels: u64,
+    pub sheet_sizes: Vec<(u32, u32)>,
+    pub sheets: Vec<PathBuf>,
+    /// Mean absolute colour difference (8-bit units, mean of RGB) across chart frontiers,
+    /// sampled just inside both faces of each frontier edge.
+    pub seam_jump_before: f64,
+    pub seam_jump_after: f64,
+    pub frontier_edges: usize,
+    pub smoothing: bool,
+    pub smoothing_sweeps: u64,
+    /// Frequency-based splitting is not implemented yet; always false.
+    pub frequency_split: bool,
+    pub pack: Option<PackReport>,
+    pub resample: Option<ResampleReport>,
+    pub times: BuildTimes,
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+fn berr(e: BuildError) -> PipelineError {
+    PipelineError::Usage(e.to_string())
+}
+
+/// Runs the whole build; see the module documentation.
+pub fn build(
+    mesh: &Path,
+    cameras: &Path,
+    images: &Path,
+    output: &Path,
+    registry: &Registry,
+    cfg: &BuildConfig,
+) -> Result<BuildReport, PipelineError> {
+    let t_all = Instant::now();
+    let packer = registry.packer(&cfg.packer, &cfg.packer_params)?;
+    let mut times = BuildTimes::default();
+    let t = Instant::now();
+    let model = crate::io::read_model(mesh)?;
+    let rig = read_rig(cameras, images).map_err(berr)?;
+    if rig.cameras.is_empty() {
+        return Err(berr(BuildError::Invalid(format!(
+            "{}: no registered camera",
+            cameras.display()
+        ))));
+    }
+    // Every photo must exist and match its calibration's size (a wrong folder or a resized
+    // photo would otherwise texture silently wrong).
+    let mut photo_paths = Vec::with_capacity(rig.cameras.len());
+    for (k, c) in rig.cameras.iter().enumerate() {
+        let p = images.join(&c.image);
+        if !p.is_file() {
+            return Err(berr(BuildError::MissingImage {
+                name: c.image.clone(),
+                camera: k,
+                dir: images.to_path_buf(),
+            }));
+        }
+        let (w, h) = decode::probe_size(&ImageSource::File(p.clone()))?;
+        if (w, h) != (c.intr.width, c.intr.height) {
+            return Err(berr(BuildError::Invalid(format!(
+                "{}: photo is {w}x{h} but its camera says {}x{}",
+                p.display(),
+                c.intr.width,
+                c.intr.height
+            ))));
+        }
+        photo_paths.push(p);
+    }
+    let positions = &model.positions;
+    let tris: Vec<[u32; 3]> = model.faces.iter().map(|f| f.v.map(|v| v.0)).collect();
+    if tris.is_empty() {
+        return Err(PipelineError::Usage(format!("{}: the mesh has no faces", mesh.display())));
+    }
+    times.load_ms = ms(t);
+
+    let t = Instant::now();
+    let vis = visibility::compute(positions, &tris, &rig.cameras, &cfg.visibility);
+    times.visibility_ms = ms(t);
+
+    let t = Instant::now();
+    let geom = FaceGeom::new(positions, &tris);
+    let adj = face_adjacency(&tris);
+    let part = partition(&geom, &adj, &vis, &rig.cameras, cfg.max_rounds);
+    times.partition_ms = ms(t);
+
+    // Projective parametrization: one UV vertex per (chart, mesh vertex), at the vertex's
+    // projection (with lens distortion) into the chart's photo, in that photo's texel space.
+    let t = Instant::now();
+    let nf = tris.len();
+    let n_cams = rig.cameras.len();
+    let n_charts = part.chart_camera.len();
+    let unseen: Vec<usize> = (0..nf).filter(|&f| part.face_chart[f] == NONE).collect();
+    let fill_chart = n_charts as u32;
+    let fill_sheet = n_cams as u32;
+    let mut corner_vert = vec![0u32; 3 * nf];
+    let mut vert_uv: Vec<[f64; 2]> = Vec::new();
+    let mut orig_uv = vec![[0.0; 2]; 3 * nf];
+    let mut face_chart = vec![0u32; nf];
+    let mut face_sheet = vec![0u32; nf];
+    let mut key: std::collections::HashMap<(u32, u32), u32> = std::collections::HashMap::new();
+    for f in 0..nf {
+        let c = part.face_chart[f];
+        if c == NONE {
+            continue;
+        }
+        let cam_i = part.chart_camera[c as usize];
+        let cam = &rig.cameras[cam_i as usize];
+        face_chart[f] = c;
+        face_sheet[f] = cam_i;
+        for k in 0..3 {
+            let v = tris[f][k];
+            let uv = cam.project_texel(positions[v as usize]).unwrap_or([0.0, 0.0]);
+            let id = *key.entry((c, v)).or_insert_with(|| {
+                vert_uv.push(uv);
+                (vert_uv.len() - 1) as u32
+            });
+            corner_vert[3 * f + k] = id;
+            orig_uv[3 * f + k] = vert_uv[id as usize];
+        }
+    }
+    drop(key);
+    // Unseen faces share one small fill triangle on a tiny fill sheet (never dropped).
+    const FILL: u32 = 4;
+    let fill_tri = [[0.5, 0.5], [3.5, 0.5], [0.5, 3.5]];
+    let fill_base = vert_uv.len() as u32;
+    let mut n_pack_charts = n_charts;
+    if !unseen.is_empty() {
+        vert_uv.extend_from_slice(&fill_tri);
+        n_pack_charts += 1;
+        for &f in &unseen {
+            face_chart[f] = fill_chart;
+            face_sheet[f] = fill_sheet;
+            for k in 0..3 {
+                corner_vert[3 * f + k] = fill_base + k as u32;
+                orig_uv[3 * f + k] = fill_tri[k];
+            }
+        }
+    }
+    times.parametrize_ms = ms(t);
+
+    let t = Instant::now();
+    let mut in_sizes: Vec<(u32, u32)> =
+        rig.cameras.iter().map(|c| (c.intr.width, c.intr.height)).collect();
+    in_sizes.push((FILL, FILL));
+    let max_side = cfg
+        .max_sheet_size
+        .unwrap_or_else(|| in_sizes.iter().map(|s| s.0.max(s.1)).max().unwrap_or(1024));
+    let area: Vec<f64> = geom.area.clone();
+    let li = LayoutInput {
+        corner_vert: &corner_vert,
+        vert_uv: &vert_uv,
+        orig_uv: &orig_uv,
+        face_chart: &face_chart,
+        face_sheet: &face_sheet,
+        face_area_3d: &area,
+        n_charts: n_pack_charts,
+        input_sheet_sizes: &in_sizes,
+    };
+    let popts = PackOptions {
+        padding: cfg.padding.max(1),
+        max_sheet_size: Some((max_side, max_side)),
+        ..PackOptions::default()
+    };
+    let packed = pack_layout(&li, packer.as_ref(), &popts)?;
+    times.pack_ms = ms(t);
+
+    // Texture: decode the photos that texture some chart into tile files, then resample.
+    let t = Instant::now();
+    let out_dir = match output.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    super::create_dir(&out_dir)?;
+    let work_dir = cfg.work_dir.clone().unwrap_or_else(|| out_dir.clone());
+    super::create_dir(&work_dir)?;
+    let used: Vec<bool> = {
+        let mut u = vec![false; n_cams];
+        for &c in &part.chart_camera {
+            u[c as usize] = true;
+        }
+        u
+    };
+    // Unused photos get a 1×1 placeholder so sheet indices stay camera indices.
+    let first_used = used.iter().position(|&u| u);
+    let format = match first_used {
+        Some(k) => {
+            decode::decode_to_store(&ImageSource::File(photo_paths[k].clone()), &work_dir)?.format()
+        }
+        None => crate::texture::PixelFormat::RGB8,
+    };
+    let mut photos: Vec<TileStore> = Vec::with_capacity(n_cams + 1);
+    for (k, p) in photo_paths.iter().enumerate() {
+        photos.push(if used[k] {
+            decode::decode_to_store(&ImageSource::File(p.clone()), &work_dir)?
+        } else {
+            TileStore::create(&work_dir, 1, 1, format)?
+        });
+    }
+    let fill_color = fill_colour(
+        &unseen,
+        &adj,
+        &part.face_chart,
+        &part.chart_camera,
+        &rig.cameras,
+        &photos,
+        &geom,
+    );
+    let mut fill = TileStore::create(&work_dir, FILL, FILL, format)?;
+    for y in 0..FILL {
+        for x in 0..FILL {
+            smoothing::write_rgb(&mut fill, x, y, fill_color);
+        }
+    }
+    photos.push(fill);
+    let mappings: Vec<FaceMapping> = (0..nf)
+        .map(|f| {
+            let chart = face_chart[f] as usize;
+            FaceMapping {
+                dst_sheet: packed.face_sheet[f],
+                dst: [0, 1, 2].map(|k| packed.vert_uv[corner_vert[3 * f + k] as usize]),
+                src_sheet: face_sheet[f],
+                src: [0, 1, 2].map(|k| orig_uv[3 * f + k]),
+                exact: if packed.face_preserved[f] { packed.chart_transform[chart] } else { None },
+            }
+        })
+        .collect();
+    let refs: Vec<&TileStore> = photos.iter().collect();
+    // Gutters come after smoothing, so they carry the corrected colours.
+    let ropts = ResampleOptions { dilate: 0, push_pull: false, work_dir: work_dir.clone() };
+    let mut res = resample_sheets(&refs, &mappings, &packed.sheet_sizes, &ropts)?;
+    times.texture_ms = ms(t);
+
+    let t = Instant::now();
+    let out_uv = |f: usize, k: usize| packed.vert_uv[corner_vert[3 * f + k] as usize];
+    let seams = frontier_edges(&tris, &adj, &part.face_chart);
+    let seam_jump_before = seam_jump(&seams, &tris, &packed.face_sheet, &out_uv, &res.sheets);
+    let mut sweeps = 0u64;
+    if cfg.smoothing && !seams.is_empty() {
+        sweeps = smooth(
+            &seams,
+            &tris,
+            positions,
+            &part.face_chart,
+            &part.chart_camera,
+            &rig.cameras,
+            &photos,
+            &packed.face_sheet,
+            &out_uv,
+            &mut res.sheets,
+        );
+    }
+    let seam_jump_after = seam_jump(&seams, &tris, &packed.face_sheet, &out_uv, &res.sheets);
+    times.smoothing_ms = ms(t);
+    drop(refs);
+    drop(photos);
+
+    let t = Instant::now();
+    for (s, store) in res.sheets.iter_mut().enumerate() {
+        let mut cov = Coverage::for_store(store);
+        let h = store.height();
+        let rect = PixelRect::new(0, 0, store.width(), h);
+        for (f, m) in mappings.iter().enumerate() {
+            if packed.face_sheet[f] as usize == s {
+                rasterize_triangle(m.dst, h, rect, |i, j, _| cov.set(i, j));
+            }
+        }
+        dilate(store, &mut cov, cfg.padding.clamp(1, crate::texture::gutter::MAX_RADIUS))?;
+        push_pull(store, &mut cov, &work_dir)?;
+    }
+    times.gutter_ms = ms(t);
+
+    let t = Instant::now();
+    let protect: Vec<PathBuf> =
+        std::iter::once(mesh.to_path_buf()).chain(photo_paths.iter().cloned()).collect();
+    let enc = EncodeOptions {
+        format: Some(cfg.texture_format),
+        jpeg_quality: 92,
+        protect: protect.clone(),
+    };
+    let mut sheet_paths = Vec::new();
+    for (k, store) in res.sheets.iter().enumerate() {
+        let p = output_sheet_path(output, k, cfg.texture_format);
+        write_image(store, &p, &enc)?;
+        sheet_paths.push(p);
+    }
+    let out_model = output_model(
+        &model,
+        &corner_vert,
+        &packed.vert_uv,
+        &packed.face_sheet,
+        &packed.sheet_sizes,
+        &sheet_paths,
+    );
+    crate::io::write_model(&out_model, output, &WriteOptions { protect })?;
+    times.write_ms = ms(t);
+
+    let eff = efficiencies(
+        &tris,
+        positions,
+        &corner_vert,
+        &packed.vert_uv,
+        &face_chart,
+        n_pack_charts,
+        &packed.sheet_sizes,
+        &unseen,
+    );
+    let texels: u64 = packed.sheet_sizes.iter().map(|&(w, h)| u64::from(w) * u64::from(h)).sum();
+    times.total_ms = ms(t_all);
+    Ok(BuildReport {
+        mesh: mesh.to_path_buf(),
+        cameras: cameras.to_path_buf(),
+        output: output.to_path_buf(),
+        packer: cfg.packer.clone(),
+        photos: n_cams,
+        faces: nf,
+        vertices: positions.len(),
+        unseen_faces: unseen.len(),
+        fill_color,
+        visibility_found_per_pass: vis.found_per_pass.clone(),
+        partition_rounds: part.rounds,
+        charts_before_merge: part.charts_before_merge,
+        charts: n_charts,
+        distortion: part.distortion,
+        stretch_efficiency: eff.0,
+        intra_rectangle_efficiency: eff.1,
+        inter_rectangle_efficiency: eff.2,
+        packing_efficiency: eff.1 * eff.2,
+        texture_efficiency: eff.0 * eff.1 * eff.2,
+        texels,
+        sheet_sizes: packed.sheet_sizes.clone(),
+        sheets: sheet_paths,
+        seam_jump_before,
+        seam_jump_after,
+        frontier_edges: seams.len(),
+        smoothing: cfg.smoothing,
+        smoothing_sweeps: sweeps,
+        frequency_split: false,
+        pack: Some(packed.report.clone()),
+        resample: Some(res.report.clone()),
+        times,
+    })
+}
+
+/// The fill colour of unseen faces: the mean photo colour at the centroids of their seen
+/// neighbours (mid-grey when none has one).
+fn fill_colour(
+    unseen: &[usize],
+    adj: &[[u32; 3]],
+    face_chart: &[u32],
+    chart_camera: &[u32],
+    cams: &[PhotoCamera],
+    photos: &[TileStore],
+    geom: &FaceGeom,
+) -> Rgb {
+    let mut s = [0.0; 3];
+    let mut n = 0.0;
+    for &f in unseen {
+        for &g in &adj[f] {
+            if g == NONE || face_chart[g as usize] == NONE {
+                continue;
+            }
+            let cam = chart_camera[face_chart[g as usize] as usize] as usize;
+            if let Some(p) = cams[cam].project_texel(geom.centroid[g as usize]) {
+                let c = smoothing::sample(&photos[cam], p);
+                for k in 0..3 {
+                    s[k] += c[k];
+                }
+                n += 1.0;
+            }
+        }
+    }
+    if n == 0.0 { [0.5; 3] } else { s.map(|v| v / n) }
+}
+
+/// A frontier edge: face `f`'s corners `a → b` (local indices), shared with face `g` of
+/// another chart.
+#[derive(Clone, Copy)]
+struct Seam {
+    f: u32,
+    k: u8,
+    g: u32,
+}
+
+fn frontier_edges(tris: &[[u32; 3]], adj: &[[u32; 3]], face_chart: &[u32]) -> Vec<Seam> {
+    let mut out = Vec::new();
+    for (f, a) in adj.iter().enumerate() {
+        for (k, &g) in a.iter().enumerate() {
+            if g == NONE || (g as usize) < f {
+                continue;
+            }
+            let (cf, cg) = (face_chart[f], face_chart[g as usize]);
+            if cf != cg && cf != NONE && cg != NONE {
+                let _ = tris;
+                out.push(Seam { f: f as u32, k: k as u8, g });
+            }
+        }
+    }
+    out
+}
+
+/// The local corner of face `g` holding mesh vertex `v`.
+fn corner_of(t: &[u32; 3], v: u32) -> usize {
+    t.iter().position(|&x| x == v).unwrap_or(0)
+}
+
+/// A point of face `f`'s output triangle at parameter `s` along its edge `k`, moved half a
+/// texel (at most a third of the way) towards the opposite corner, so it samples the face itself
+/// and not the neighbour's gutter.
+fn inside_point(uv: [[f64; 2]; 3], k: usize, s: f64) -> [f64; 2] {
+    let (a, b, o) = (uv[k], uv[(k + 1) % 3], uv[(k + 2) % 3]);
+    let e = [a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1])];
+    let d = [o[0] - e[0], o[1] - e[1]];
+    let len = (d[0] * d[0] + d[1] * d[1]).sqrt().max(1e-12);
+    let t = (0.75 / len).min(1.0 / 3.0);
+    [e[0] + t * d[0], e[1] + t * d[1]]
+}
+
+fn seam_jump(
+    seams: &[Seam],
+    tris: &[[u32; 3]],
+    face_sheet: &[u32],
+    out_uv: &dyn Fn(usize, usize) -> [f64; 2],
+    sheets: &[TileStore],
+) -> f64 {
+    let mut sum = 0.0;
+    let mut n = 0.0;
+    for sm in seams {
+        let (f, g, k) = (sm.f as usize, sm.g as usize, sm.k as usize);
+        let (va, vb) = (tris[f][k], tris[f][(k + 1) % 3]);
+        let kg = corner_of(&tris[g], vb);
+        // In g the same edge runs b → a, i.e. from g's corner kg to kg + 1 when consistently
+        // oriented; otherwise parametrize from a explicitly.
+        let uvf = [0, 1, 2].map(|c| out_uv(f, c));
+        let uvg = [0, 1, 2].map(|c| out_uv(g, c));
+        let forward_g = tris[g][(kg + 1) % 3] == va;
+        for s in [0.25, 0.5, 0.75] {
+            let pf = inside_point(uvf, k, s);
+            let pg = if forward_g {
+                inside_point(uvg, kg, 1.0 - s)
+            } else {
+                inside_point(uvg, corner_of(&tris[g], va), s)
+            };
+            let cf = smoothing::sample(&sheets[face_sheet[f] as usize], pf);
+            let cg = smoothing::sample(&sheets[face_sheet[g] as usize], pg);
+            sum += (0..3).map(|c| (cf[c] - cg[c]).abs()).sum::<f64>() / 3.0 * 255.0;
+            n += 1.0;
+        }
+    }
+    if n > 0.0 { sum / n } else { 0.0 }
+}
+
+/// Colour smoothing (see [`smoothing`]). Returns the relaxation sweeps run.
+#[allow(clippy::too_many_arguments)]
+fn smooth(
+    seams: &[Seam],
+    tris: &[[u32; 3]],
+    positions: &[[f64; 3]],
+    face_chart: &[u32],
+    chart_camera: &[u32],
+    cams: &[PhotoCamera],
+    photos: &[TileStore],
+    face_sheet: &[u32],
+    out_uv: &dyn Fn(usize, usize) -> [f64; 2],
+    sheets: &mut [TileStore],
+) -> u64 {
+    let n_charts = chart_camera.len();
+    // Faces and seam sides of each chart.
+    let mut faces: Vec<Vec<u32>> = vec![Vec::new(); n_charts];
+    for (f, &c) in face_chart.iter().enumerate() {
+        if c != NONE {
+            faces[c as usize].push(f as u32);
+        }
+    }
+    let mut sides: Vec<Vec<(u32, u8, u32)>> = vec![Vec::new(); n_charts];
+    for sm in seams {
+        let (f, g) = (sm.f as usize, sm.g as usize);
+        sides[face_chart[f] as usize].push((sm.f, sm.k, sm.g));
+        let kg = corner_of(&tris[g], tris[f][(sm.k as usize + 1) % 3]);
+        // g's edge from vertex b to vertex a (whatever its orientation): find its local index.
+        let va = tris[f][sm.k as usize];
+        let kg = if tris[g][(kg + 1) % 3] == va { kg } else { corner_of(&tris[g], va) };
+        sides[face_chart[g] as usize].push((sm.g, kg as u8, sm.f));
+    }
+    let mut sweeps = 0u64;
+    for c in 0..n_charts {
+        if sides[c].is_empty() {
+            continue;
+        }
+        let sheet = face_sheet[faces[c][0] as usize] as usize;
+        let store = &sheets[sheet];
+        let (w, h) = (store.width(), store.height());
+        // The chart's box in pixels (row 0 at the top), one texel of margin.
+        let (mut x0, mut x1, mut y0, mut y1) =
+            (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+        for &f in &faces[c] {
+            for k in 0..3 {
+                let p = out_uv(f as usize, k);
+                x0 = x0.min(p[0]);
+                x1 = x1.max(p[0]);
+                y0 = y0.min(f64::from(h) - p[1]);
+                y1 = y1.max(f64::from(h) - p[1]);
+            }
+        }
+        let bx0 = (x0.floor() - 1.0).max(0.0) as u32;
+        let by0 = (y0.floor() - 1.0).max(0.0) as u32;
+        let bx1 = ((x1.ceil() + 1.0) as u32).min(w);
+        let by1 = ((y1.ceil() + 1.0) as u32).min(h);
+        if bx0 >= bx1 || by0 >= by1 {
+            continue;
+        }
+        let mut grid = ChartGrid::new(bx0, by0, bx1 - bx0, by1 - by0);
+        let rect = PixelRect::new(bx0, by0, bx1, by1);
+        for &f in &faces[c] {
+            let tri = [0, 1, 2].map(|k| out_uv(f as usize, k));
+            rasterize_triangle(tri, h, rect, |i, j, _| {
+                grid.inside[((j - by0) * grid.w + (i - bx0)) as usize] = true;
+            });
+        }
+        // Correction factors along the chart's frontier edges: half the difference between the
+        // neighbour's photo and this chart's own texture at the same surface point.
+        for &(f, k, g) in &sides[c] {
+            let (f, k) = (f as usize, k as usize);
+            let other = chart_camera[face_chart[g as usize] as usize] as usize;
+            let uv = [0, 1, 2].map(|q| out_uv(f, q));
+            let (pa, pb) =
+                (positions[tris[f][k] as usize], positions[tris[f][(k + 1) % 3] as usize]);
+            let ea = uv[k];
+            let eb = uv[(k + 1) % 3];
+            let len = ((eb[0] - ea[0]).powi(2) + (eb[1] - ea[1]).powi(2)).sqrt();
+            let steps = (len * 2.0).ceil().max(1.0) as u32;
+            for s in 0..=steps {
+                let t = (f64::from(s) + 0.5) / f64::from(steps + 1);
+                let q = inside_point(uv, k, t);
+                let x = [0, 1, 2].map(|d| pa[d] + t * (pb[d] - pa[d]));
+                let Some(po) = cams[other].project_texel(x) else { continue };
+                let mine = smoothing::sample(store, q);
+                let theirs = smoothing::sample(&photos[other], po);
+                let corr = [0, 1, 2].map(|d| 0.5 * (theirs[d] - mine[d]));
+                let (px, py) = (q[0].floor(), (f64::from(h) - q[1]).floor());
+                if px >= 0.0 && py >= 0.0 && px < f64::from(w) && py < f64::from(h) {
+                    grid.add(px as u32, py as u32, corr);
+                }
+            }
+        }
+        let (corr, n) = smoothing::diffuse(&grid, 1e-10, 400);
+        sweeps += u64::from(n);
+        let store = &mut sheets[sheet];
+        for y in 0..grid.h {
+            for x in 0..grid.w {
+                let o = (y * grid.w + x) as usize;
+                if !grid.inside[o] {
+                    continue;
+                }
+                let (sx, sy) = (grid.x0 + x, grid.y0 + y);
+                let v = smoothing::read_rgb(store, sx, sy);
+                smoothing::write_rgb(store, sx, sy, [0, 1, 2].map(|d| v[d] + corr[o][d]));
+            }
+        }
+    }
+    sweeps
+}
+
+/// The output model: input positions, normals and faces in input order; UVs from the packing.
+fn output_model(
+    model: &Model,
+    corner_vert: &[u32],
+    vert_uv: &[[f64; 2]],
+    face_sheet: &[u32],
+    sheet_sizes: &[(u32, u32)],
+    sheet_paths: &[PathBuf],
+) -> Model {
+    let mut out = model.clone();
+    out.origin = Origin::None;
+    out.path = PathBuf::new();
+    out.sheets = sheet_paths
+        .iter()
+        .zip(sheet_sizes)
+        .map(|(p, &size)| Sheet { image: ImageSource::File(p.clone()), size: Some(size) })
+        .collect();
+    out.materials = (0..out.sheets.len())
+        .map(|k| Material {
+            name: format!("atlas{k}"),
+            sheet: Some(SheetId::from_usize(k)),
+            extra: Vec::new(),
+        })
+        .collect();
+    let mut uvs = Vec::new();
+    let mut new_id = vec![u32::MAX; vert_uv.len()];
+    for (f, face) in out.faces.iter_mut().enumerate() {
+        let s = face_sheet[f] as usize;
+        let (w, h) = sheet_sizes[s];
+        let mut ids = [UvId(0); 3];
+        for (k, id) in ids.iter_mut().enumerate() {
+            let v = corner_vert[3 * f + k] as usize;
+            if new_id[v] == u32::MAX {
+                new_id[v] = uvs.len() as u32;
+                uvs.push(texel_to_uv(vert_uv[v], w, h));
+            }
+            *id = UvId(new_id[v]);
+        }
+        face.uv = Some(ids);
+        face.material = Some(MaterialId::from_usize(s));
+    }
+    out.uvs = uvs;
+    out
+}
+
+/// (stretch efficiency, intra-rectangle, inter-rectangle) of the paper's Table 1, over the
+/// seen faces. Stretch is Sander et al.'s L2 stretch with total 2-D and 3-D areas normalized.
+#[allow(clippy::too_many_arguments)]
+fn efficiencies(
+    tris: &[[u32; 3]],
+    positions: &[[f64; 3]],
+    corner_vert: &[u32],
+    uv: &[[f64; 2]],
+    face_chart: &[u32],
+    n_charts: usize,
+    sheet_sizes: &[(u32, u32)],
+    unseen: &[usize],
+) -> (f64, f64, f64) {
+    let mut is_unseen = vec![false; tris.len()];
+    for &f in unseen {
+        is_unseen[f] = true;
+    }
+    let (mut a3, mut a2, mut l2sum) = (0.0, 0.0, 0.0);
+    let mut boxes =
+        vec![[f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY]; n_charts];
+    for (f, t) in tris.iter().enumerate() {
+        if is_unseen[f] {
+            continue;
+        }
+        let q = t.map(|v| positions[v as usize]);
+        let s = [0, 1, 2].map(|k| uv[corner_vert[3 * f + k] as usize]);
+        let area2 = ((s[1][0] - s[0][0]) * (s[2][1] - s[0][1])
+            - (s[2][0] - s[0][0]) * (s[1][1] - s[0][1]))
+            / 2.0;
+        let (_, area3) = visibility::face_normal_area(q);
+        let b = &mut boxes[face_chart[f] as usize];
+        for p in &s {
+            b[0] = b[0].min(p[0]);
+            b[1] = b[1].min(p[1]);
+            b[2] = b[2].max(p[0]);
+            b[3] = b[3].max(p[1]);
+        }
+        if area2.abs() < 1e-300 || area3 <= 0.0 {
+            continue;
+        }
+        let ss: [f64; 3] = [0, 1, 2].map(|d| {
+            (q[0][d] * (s[1][1] - s[2][1])
+                + q[1][d] * (s[2][1] - s[0][1])
+                + q[2][d] * (s[0][1] - s[1][1]))
+                / (2.0 * area2)
+        });
+        let st: [f64; 3] = [0, 1, 2].map(|d| {
+            (q[0][d] * (s[2][0] - s[1][0])
+                + q[1][d] * (s[0][0] - s[2][0])
+                + q[2][d] * (s[1][0] - s[0][0]))
+                / (2.0 * area2)
+        });
+        let a = ss.iter().map(|v| v * v).sum::<f64>();
+        let c = st.iter().map(|v| v * v).sum::<f64>();
+        l2sum += 0.5 * (a + c) * area3;
+        a3 += area3;
+        a2 += area2.abs();
+    }
+    let stretch = if a3 > 0.0 && a2 > 0.0 {
+        // L2² normalized so that a map with equal total areas and no stretch scores 1.
+        let l2sq = (l2sum / a3) * (a2 / a3);
+        1.0 / l2sq
+    } else {
+        0.0
+    };
+    let rects: f64 =
+        boxes.iter().filter(|b| b[0].is_finite()).map(|b| (b[2] - b[0]) * (b[3] - b[1])).sum();
+    let texels: f64 = sheet_sizes.iter().map(|&(w, h)| f64::from(w) * f64::from(h)).sum();
+    let intra = if rects > 0.0 { a2 / rects } else { 0.0 };
+    let inter = if texels > 0.0 { rects / texels } else { 0.0 };
+    (stretch, intra, inter)
+}

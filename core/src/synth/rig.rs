@@ -1,0 +1,266 @@
+//! Synthetic photo rigs: photos of a synthetic mesh with its known [`true_color`], rendered by a
+//! software rasterizer from the cameras of [`cameras::place`] with a per-photo exposure and
+//! white-balance gain (so seams show colour jumps as real photos do) and a little radial lens
+//! distortion, written as COLMAP text and binary and as Bundler, plus the bare mesh. Also the
+//! PSNR of a built texture against the true colour.
+
+use std::path::{Path, PathBuf};
+
+use super::color::{linear_to_srgb8, srgb8_to_linear, true_color};
+use super::{Shape, cameras, mesh};
+use crate::build::cameras::{Distortion, Intrinsics, PhotoCamera, Rig};
+use crate::index::VertexId;
+use crate::model::{Face, Model};
+use crate::texture::raster::{PixelRect, rasterize_triangle};
+use crate::texture::{PixelFormat, TileStore};
+
+/// What to generate.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct RigParams {
+    pub shape: Shape,
+    pub faces: u32,
+    pub photos: u32,
+    pub width: u32,
+    pub height: u32,
+    /// Largest per-channel gain deviation from 1 (0.15 = gains in 0.85..1.15).
+    pub gain_spread: f64,
+    /// Radial distortion k1 of every other photo (0 = none).
+    pub k1: f64,
+    pub seed: u64,
+}
+
+impl Default for RigParams {
+    fn default() -> Self {
+        Self {
+            shape: Shape::Blob,
+            faces: 4000,
+            photos: 12,
+            width: 640,
+            height: 480,
+            gain_spread: 0.12,
+            k1: -0.04,
+            seed: 1,
+        }
+    }
+}
+
+/// What was written.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct RigOutput {
+    pub mesh: PathBuf,
+    pub images: PathBuf,
+    pub colmap_text: PathBuf,
+    pub colmap_binary: PathBuf,
+    pub bundler: PathBuf,
+    pub faces: usize,
+    pub photos: usize,
+    /// Gain of each photo (linear RGB multipliers).
+    pub gains: Vec<[f64; 3]>,
+}
+
+fn err(e: impl std::fmt::Display) -> super::SynthError {
+    super::SynthError::Params(e.to_string())
+}
+
+/// Pseudo-random number in `[-1, 1]` from a seed and two indices.
+fn rnd(seed: u64, a: u64, b: u64) -> f64 {
+    super::rng::signed_f64(super::rng::hash3(seed, a, b))
+}
+
+/// The rig's cameras: [`cameras::place`]'s regular cameras in the OpenCV convention.
+pub fn rig_cameras(p: &RigParams, m: &mesh::Mesh) -> Vec<PhotoCamera> {
+    let (centre, radius) = cameras::bounds(m);
+    let cams = cameras::place(p.photos, centre, radius, p.shape == Shape::Terrain, p.seed);
+    cams.iter()
+        .take(p.photos as usize)
+        .enumerate()
+        .map(|(k, c)| {
+            // Synthetic image-plane y is up; OpenCV's y is down.
+            let r = [c.right, [-c.up[0], -c.up[1], -c.up[2]], c.forward];
+            let f = c.focal * 0.5 * f64::from(p.width);
+            let distortion = if k % 2 == 1 && p.k1 != 0.0 {
+                Distortion::Radial2 { k1: p.k1, k2: 0.0 }
+            } else {
+                Distortion::None
+            };
+            let intr = Intrinsics {
+                width: p.width,
+                height: p.height,
+                fx: f,
+                fy: f,
+                cx: f64::from(p.width) / 2.0,
+                cy: f64::from(p.height) / 2.0,
+                distortion,
+            };
+            PhotoCamera::from_centre(format!("photo_{k:03}.png"), r, c.pos, intr)
+        })
+        .collect()
+}
+
+/// Renders one photo: z-buffered, perspective-correct true colour times `gain`, black background.
+pub fn render(
+    m: &mesh::Mesh,
+    cam: &PhotoCamera,
+    gain: [f64; 3],
+    work: &Path,
+) -> Result<TileStore, crate::texture::TextureError> {
+    let (w, h) = (cam.intr.width, cam.intr.height);
+    let mut store = TileStore::create(work, w, h, PixelFormat::RGB8)?;
+    let n = (w * h) as usize;
+    let mut depth = vec![f64::INFINITY; n];
+    let mut hit: Vec<(u32, [f64; 3])> = vec![(u32::MAX, [0.0; 3]); n];
+    let full = PixelRect::new(0, 0, w, h);
+    let centre = cam.centre();
+    for (f, t) in m.tris.iter().enumerate() {
+        let p = t.map(|v| m.positions[v as usize]);
+        let (nrm, _) = mesh::tri_normal(p);
+        let cen = [0, 1, 2].map(|k| (p[0][k] + p[1][k] + p[2][k]) / 3.0);
+        if crate::build::cameras::dot(nrm, crate::build::cameras::sub(centre, cen)) <= 0.0 {
+            continue;
+        }
+        let mut tri = [[0.0; 2]; 3];
+        let mut z = [0.0; 3];
+        let mut ok = true;
+        for k in 0..3 {
+            match cam.project(p[k]) {
+                Some((q, d)) => {
+                    tri[k] = [q[0], f64::from(h) - q[1]];
+                    z[k] = d;
+                }
+                None => ok = false,
+            }
+        }
+        if !ok {
+            continue;
+        }
+        rasterize_triangle(tri, h, full, |i, j, b| {
+            // Perspective-correct barycentrics: weights over depth, renormalized.
+            let wz = [b[0] / z[0], b[1] / z[1], b[2] / z[2]];
+            let s = wz[0] + wz[1] + wz[2];
+            let d = 1.0 / s;
+            let o = (j * w + i) as usize;
+            if d < depth[o] {
+                depth[o] = d;
+                hit[o] = (f as u32, [wz[0] / s, wz[1] / s, wz[2] / s]);
+            }
+        });
+    }
+    for j in 0..h {
+        for i in 0..w {
+            let (f, b) = hit[(j * w + i) as usize];
+            if f == u32::MAX {
+                continue;
+            }
+            let t = m.tris[f as usize];
+            let p = [0, 1, 2].map(|k| {
+                b[0] * m.positions[t[0] as usize][k]
+                    + b[1] * m.positions[t[1] as usize][k]
+                    + b[2] * m.positions[t[2] as usize][k]
+            });
+            let c = true_color(p);
+            let px = store.pixel_mut(i, j);
+            for k in 0..3 {
+                px[k] = linear_to_srgb8(c[k] * gain[k]);
+            }
+        }
+    }
+    Ok(store)
+}
+
+/// Writes a rig under `out`: `mesh.obj`, `images/`, `sparse/` (COLMAP text), `sparse_bin/`
+/// (COLMAP binary), `bundle/bundle.out` + `bundle/list.txt`.
+pub fn generate_rig(p: &RigParams, out: &Path) -> Result<RigOutput, super::SynthError> {
+    if p.photos == 0 || p.width < 16 || p.height < 16 || !(100..=5_000_000).contains(&p.faces) {
+        return Err(err("need at least 1 photo of 16x16 pixels and 100 to 5000000 faces"));
+    }
+    let m = mesh::build(p.shape, p.faces, p.seed);
+    let cams = rig_cameras(p, &m);
+    let images = out.join("images");
+    for d in [
+        out.to_path_buf(),
+        images.clone(),
+        out.join("sparse"),
+        out.join("sparse_bin"),
+        out.join("bundle"),
+    ] {
+        std::fs::create_dir_all(&d).map_err(|e| err(format!("{}: {e}", d.display())))?;
+    }
+    let gains: Vec<[f64; 3]> = (0..cams.len())
+        .map(|k| {
+            let e = 1.0 + p.gain_spread * rnd(p.seed ^ 0x6A1, k as u64, 0);
+            [0, 1, 2]
+                .map(|c| e * (1.0 + 0.3 * p.gain_spread * rnd(p.seed ^ 0x6A1, k as u64, c + 1)))
+        })
+        .collect();
+    let rendered: Result<Vec<()>, super::SynthError> = {
+        use rayon::prelude::*;
+        cams.par_iter()
+            .zip(&gains)
+            .map(|(c, &g)| {
+                let s = render(&m, c, g, out).map_err(err)?;
+                crate::texture::encode::write_image(&s, &images.join(&c.image), &Default::default())
+                    .map_err(err)
+            })
+            .collect()
+    };
+    rendered?;
+    let rig = Rig { cameras: cams, source: out.to_path_buf() };
+    crate::build::colmap::write_text(&rig, &out.join("sparse")).map_err(err)?;
+    crate::build::colmap::write_binary(&rig, &out.join("sparse_bin")).map_err(err)?;
+    crate::build::bundler::write(&rig, &out.join("bundle")).map_err(err)?;
+    let model = Model {
+        positions: m.positions.clone(),
+        faces: m
+            .tris
+            .iter()
+            .map(|t| Face { v: t.map(VertexId), uv: None, n: None, material: None })
+            .collect(),
+        ..Model::default()
+    };
+    let mesh_path = out.join("mesh.obj");
+    crate::io::write_model(&model, &mesh_path, &Default::default()).map_err(err)?;
+    Ok(RigOutput {
+        mesh: mesh_path,
+        images,
+        colmap_text: out.join("sparse"),
+        colmap_binary: out.join("sparse_bin"),
+        bundler: out.join("bundle").join("bundle.out"),
+        faces: m.tris.len(),
+        photos: rig.cameras.len(),
+        gains,
+    })
+}
+
+/// PSNR (dB, 8-bit sRGB) of a textured model against the true colour, over every texel centre
+/// inside a face's UV triangle, skipping the faces listed in `skip`; also the texel count.
+pub fn texture_psnr(model: &Model, sheets: &[TileStore], skip: &[bool]) -> (f64, u64) {
+    let mut se = 0.0;
+    let mut n = 0u64;
+    for (f, face) in model.faces.iter().enumerate() {
+        if skip.get(f).copied().unwrap_or(false) {
+            continue;
+        }
+        let (Some(uv), Some(mat)) = (face.uv, face.material) else { continue };
+        let Some(s) = model.materials[mat.idx()].sheet else { continue };
+        let st = &sheets[s.idx()];
+        let (w, h) = (st.width(), st.height());
+        let tri = uv.map(|t| {
+            let q = model.uvs[t.idx()];
+            [q[0] * f64::from(w), q[1] * f64::from(h)]
+        });
+        let p = face.v.map(|v| model.positions[v.idx()]);
+        rasterize_triangle(tri, h, PixelRect::new(0, 0, w, h), |i, j, b| {
+            let x = [0, 1, 2].map(|k| b[0] * p[0][k] + b[1] * p[1][k] + b[2] * p[2][k]);
+            let c = true_color(x);
+            let px = st.pixel(i, j);
+            for k in 0..3 {
+                let d = f64::from(px[k]) - f64::from(linear_to_srgb8(c[k]));
+                se += d * d;
+            }
+            n += 1;
+        });
+    }
+    let _ = srgb8_to_linear;
+    let mse = se / (3.0 * n.max(1) as f64);
+    (if mse > 0.0 { 10.0 * (255.0f64 * 255.0 / mse).log10() } else { 99.0 }, n)
+}
