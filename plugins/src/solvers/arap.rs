@@ -251,6 +251,57 @@ pub(super) fn corners(uv: &[[f64; 2]], v: [u32; 3]) -> Tri2 {
     [uv[v[0] as usize], uv[v[1] as usize], uv[v[2] as usize]]
 }
 
+/// Marks the free vertices that some triangle uses, numbers them in order (`row_of`, `free`),
+/// and checks that every connected part of them reaches a fixed vertex: a part with none has no
+/// preferred position and its system is singular. Shared by every solver of this crate.
+pub(super) fn number_free_vertices(
+    problem: &LocalProblem,
+    parent: &mut Vec<u32>,
+    anchored: &mut Vec<bool>,
+    row_of: &mut Vec<u32>,
+    free: &mut Vec<u32>,
+) -> Result<(), SolveError> {
+    let n = problem.uv.len();
+    parent.clear();
+    parent.extend(0..n as u32);
+    for t in &problem.triangles {
+        let r0 = find(parent, t[0]);
+        for &v in &t[1..] {
+            let r = find(parent, v);
+            if r != r0 {
+                parent[r as usize] = r0;
+            }
+        }
+    }
+    anchored.clear();
+    anchored.resize(n, false);
+    row_of.clear();
+    row_of.resize(n, NONE);
+    // A free vertex takes part when some triangle uses it; unreferenced ones are left alone.
+    for t in &problem.triangles {
+        for &v in t {
+            if problem.fixed[v as usize] {
+                let r = find(parent, v);
+                anchored[r as usize] = true;
+            } else {
+                row_of[v as usize] = 0;
+            }
+        }
+    }
+    free.clear();
+    for v in 0..n as u32 {
+        if row_of[v as usize] == 0 {
+            let r = find(parent, v);
+            if !anchored[r as usize] {
+                return Err(SolveError::Unanchored);
+            }
+            row_of[v as usize] = free.len() as u32;
+            free.push(v);
+        }
+    }
+    Ok(())
+}
+
 pub(super) fn find(parent: &mut [u32], mut x: u32) -> u32 {
     while parent[x as usize] != x {
         let p = parent[x as usize];
@@ -318,48 +369,15 @@ pub(super) fn local_frame(t: Tri2, sign: f64) -> ([[f64; 2]; 2], Option<Mat2>) {
 }
 
 impl ArapSolver {
-    /// Marks the free vertices that take part in the system, numbers them, and checks that every
-    /// connected part of them reaches a fixed vertex.
+    /// Numbers the free vertices that take part in the system (see [`number_free_vertices`]).
     fn number_free_vertices(&mut self, problem: &LocalProblem) -> Result<(), SolveError> {
-        let n = problem.uv.len();
-        self.parent.clear();
-        self.parent.extend(0..n as u32);
-        for t in &problem.triangles {
-            let r0 = find(&mut self.parent, t[0]);
-            for &v in &t[1..] {
-                let r = find(&mut self.parent, v);
-                if r != r0 {
-                    self.parent[r as usize] = r0;
-                }
-            }
-        }
-        self.anchored.clear();
-        self.anchored.resize(n, false);
-        self.row_of.clear();
-        self.row_of.resize(n, NONE);
-        // A free vertex takes part when some triangle uses it; unreferenced ones are left alone.
-        for t in &problem.triangles {
-            for &v in t {
-                if problem.fixed[v as usize] {
-                    let r = find(&mut self.parent, v);
-                    self.anchored[r as usize] = true;
-                } else {
-                    self.row_of[v as usize] = 0;
-                }
-            }
-        }
-        self.free.clear();
-        for v in 0..n as u32 {
-            if self.row_of[v as usize] == 0 {
-                let r = find(&mut self.parent, v);
-                if !self.anchored[r as usize] {
-                    return Err(SolveError::Unanchored);
-                }
-                self.row_of[v as usize] = self.free.len() as u32;
-                self.free.push(v);
-            }
-        }
-        Ok(())
+        number_free_vertices(
+            problem,
+            &mut self.parent,
+            &mut self.anchored,
+            &mut self.row_of,
+            &mut self.free,
+        )
     }
 
     /// Frames, weights, expected orientations and flip guards of every triangle.

@@ -33,7 +33,9 @@ use scanatlas_core::plugin::{
     Registry, SolveError, SolveReport, get_f64,
 };
 
-use super::arap::{ArapParams, ArapSolver, OrientationState, corners, find, local_frame, sub};
+use super::arap::{
+    ArapParams, ArapSolver, OrientationState, corners, local_frame, number_free_vertices, sub,
+};
 
 /// The registered name of this solver.
 pub const NAME: &str = "slim";
@@ -305,47 +307,15 @@ fn first_root(sign: f64, e1: [f64; 2], e2: [f64; 2], f1: [f64; 2], f2: [f64; 2])
 }
 
 impl SlimSolver {
-    /// Numbers the free vertices that some triangle uses and checks that every connected part of
-    /// them reaches a fixed vertex (as `arap` does: a part with none has no preferred position).
+    /// Numbers the free vertices that take part in the system, as `arap` does.
     fn number_free_vertices(&mut self, problem: &LocalProblem) -> Result<(), SolveError> {
-        let n = problem.uv.len();
-        self.parent.clear();
-        self.parent.extend(0..n as u32);
-        for t in &problem.triangles {
-            let r0 = find(&mut self.parent, t[0]);
-            for &v in &t[1..] {
-                let r = find(&mut self.parent, v);
-                if r != r0 {
-                    self.parent[r as usize] = r0;
-                }
-            }
-        }
-        self.anchored.clear();
-        self.anchored.resize(n, false);
-        self.row_of.clear();
-        self.row_of.resize(n, NONE);
-        for t in &problem.triangles {
-            for &v in t {
-                if problem.fixed[v as usize] {
-                    let r = find(&mut self.parent, v);
-                    self.anchored[r as usize] = true;
-                } else {
-                    self.row_of[v as usize] = 0;
-                }
-            }
-        }
-        self.free.clear();
-        for v in 0..n as u32 {
-            if self.row_of[v as usize] == 0 {
-                let r = find(&mut self.parent, v);
-                if !self.anchored[r as usize] {
-                    return Err(SolveError::Unanchored);
-                }
-                self.row_of[v as usize] = self.free.len() as u32;
-                self.free.push(v);
-            }
-        }
-        Ok(())
+        number_free_vertices(
+            problem,
+            &mut self.parent,
+            &mut self.anchored,
+            &mut self.row_of,
+            &mut self.free,
+        )
     }
 
     /// Frames, energy weights, expected orientations and guards of every triangle. Returns how
