@@ -14,9 +14,9 @@ use crate::build::partition::{FaceGeom, NONE, face_adjacency, partition};
 use crate::build::smoothing::{self, ChartGrid, Rgb};
 use crate::build::visibility::{self, VisibilityOptions};
 use crate::build::{BuildError, read_rig};
-use crate::index::{MaterialId, SheetId, UvId};
+use crate::index::{MaterialId, UvId};
 use crate::io::WriteOptions;
-use crate::model::{ImageSource, Material, Model, Origin, Sheet};
+use crate::model::{ImageSource, Model, Origin};
 use crate::pack::{LayoutInput, PackOptions, PackReport, pack_layout};
 use crate::plugin::{Params, Registry};
 use crate::texture::coords::texel_to_uv;
@@ -680,18 +680,7 @@ fn output_model(
     let mut out = model.clone();
     out.origin = Origin::None;
     out.path = PathBuf::new();
-    out.sheets = sheet_paths
-        .iter()
-        .zip(sheet_sizes)
-        .map(|(p, &size)| Sheet { image: ImageSource::File(p.clone()), size: Some(size) })
-        .collect();
-    out.materials = (0..out.sheets.len())
-        .map(|k| Material {
-            name: format!("atlas{k}"),
-            sheet: Some(SheetId::from_usize(k)),
-            extra: Vec::new(),
-        })
-        .collect();
+    super::set_atlas_sheets(&mut out, sheet_paths, sheet_sizes);
     let mut uvs = Vec::new();
     let mut new_id = vec![u32::MAX; vert_uv.len()];
     for (f, face) in out.faces.iter_mut().enumerate() {

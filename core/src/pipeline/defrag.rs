@@ -8,10 +8,10 @@ use std::time::Instant;
 use super::PipelineError;
 use super::convert::output_sheet_path;
 use crate::defrag::{MergeOptions, MergeReport, MergedLayout, merge_charts_parallel, merged_model};
-use crate::index::{MaterialId, SheetId, UvId};
+use crate::index::{MaterialId, UvId};
 use crate::io::WriteOptions;
 use crate::metrics::{AtlasStats, StatsOptions, atlas_stats};
-use crate::model::{ImageSource, Material, Model, Sheet};
+use crate::model::{ImageSource, Model};
 use crate::pack::{LayoutInput, PackOptions, PackReport, PackedLayout, pack_layout};
 use crate::plugin::{Params, Registry};
 use crate::texture::coords::texel_to_uv;
@@ -414,18 +414,7 @@ fn packed_model(
     sheet_paths: &[PathBuf],
 ) -> Model {
     let mut out = model.clone();
-    out.sheets = sheet_paths
-        .iter()
-        .zip(&packed.sheet_sizes)
-        .map(|(p, &size)| Sheet { image: ImageSource::File(p.clone()), size: Some(size) })
-        .collect();
-    out.materials = (0..out.sheets.len())
-        .map(|k| Material {
-            name: format!("atlas{k}"),
-            sheet: Some(SheetId::from_usize(k)),
-            extra: Vec::new(),
-        })
-        .collect();
+    super::set_atlas_sheets(&mut out, sheet_paths, &packed.sheet_sizes);
     let mut uvs: Vec<[f64; 2]> = Vec::with_capacity(t.uv_pos.len());
     let mut new_id = vec![u32::MAX; t.uv_pos.len()];
     let mut zero_uv: Option<UvId> = None;

@@ -11,6 +11,24 @@ use crate::io::IoError;
 use crate::model::Model;
 use crate::texture::TextureError;
 
+/// Points `out` at the new atlas sheets (files beside the output model), one material
+/// `atlas{k}` per sheet.
+pub(crate) fn set_atlas_sheets(out: &mut Model, paths: &[PathBuf], sizes: &[(u32, u32)]) {
+    use crate::model::{ImageSource, Material, Sheet};
+    out.sheets = paths
+        .iter()
+        .zip(sizes)
+        .map(|(p, &size)| Sheet { image: ImageSource::File(p.clone()), size: Some(size) })
+        .collect();
+    out.materials = (0..out.sheets.len())
+        .map(|k| Material {
+            name: format!("atlas{k}"),
+            sheet: Some(crate::SheetId::from_usize(k)),
+            extra: Vec::new(),
+        })
+        .collect();
+}
+
 /// Errors of whole runs.
 #[derive(Debug, thiserror::Error)]
 pub enum PipelineError {

@@ -12,8 +12,8 @@ pub use chain::SolverChain;
 
 pub use packer::{
     ALL_ROTATIONS, Footprint, MAX_FOOTPRINT_CELLS, PackItem, PackOutput, Packer, PackerError,
-    Placement, RotationMask, check_packing, fits_sheet, oversized_sheet, quarter_turn_frame,
-    rotated_cell,
+    Placement, RotationMask, check_packing, finish_with_oversized, fits_sheet, oversized_sheet,
+    quarter_turn_frame, rotated_cell,
 };
 pub use registry::{
     ParamInfo, ParamValue, Params, PluginError, PluginInfo, PluginKind, Registry, get_bool,

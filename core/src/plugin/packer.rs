@@ -260,6 +260,24 @@ pub fn oversized_sheet(item: &PackItem, max_sheet: (u32, u32)) -> (u8, (u32, u32
     (k, item.footprint.rotated_dims(k))
 }
 
+/// Gives each oversized item (see [`oversized_sheet`]) a sheet of its own after the regular
+/// `sheets`, at the origin, and returns the packer's answer.
+pub fn finish_with_oversized(
+    items: &[PackItem],
+    max_sheet: (u32, u32),
+    mut placements: Vec<Placement>,
+    mut sheets: Vec<(u32, u32)>,
+    oversized: Vec<u32>,
+) -> PackOutput {
+    for &i in &oversized {
+        let (turn, size) = oversized_sheet(&items[i as usize], max_sheet);
+        placements[i as usize] =
+            Placement { sheet: sheets.len() as u32, quarter_turns: turn, x: 0, y: 0 };
+        sheets.push(size);
+    }
+    PackOutput { placements, sheets, oversized }
+}
+
 /// Checks a packer's answer exactly: one placement per item, allowed turns, inside the sheet,
 /// sheets within `max_sheet` except one-item sheets of oversized items, and no two items sharing a
 /// cell.

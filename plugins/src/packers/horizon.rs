@@ -10,7 +10,8 @@
 
 use scanatlas_core::plugin::{
     PackItem, PackOutput, Packer, PackerError, ParamInfo, ParamValue, Params, Placement,
-    PluginError, PluginInfo, PluginKind, Registry, fits_sheet, get_bool, get_u64, oversized_sheet,
+    PluginError, PluginInfo, PluginKind, Registry, finish_with_oversized, fits_sheet, get_bool,
+    get_u64,
 };
 
 use super::{SplitMix64, used_area};
@@ -405,14 +406,8 @@ impl Packer for HorizonPacker {
                 }
             }
         }
-        let mut sheets = vec![max_sheet; best_sheets];
-        for &i in &oversized {
-            let (turn, size) = oversized_sheet(&items[i as usize], max_sheet);
-            best[i as usize] =
-                Placement { sheet: sheets.len() as u32, quarter_turns: turn, x: 0, y: 0 };
-            sheets.push(size);
-        }
-        Ok(PackOutput { placements: best, sheets, oversized })
+        let sheets = vec![max_sheet; best_sheets];
+        Ok(finish_with_oversized(items, max_sheet, best, sheets, oversized))
     }
 }
 

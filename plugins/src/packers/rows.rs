@@ -5,7 +5,7 @@
 
 use scanatlas_core::plugin::{
     PackItem, PackOutput, Packer, PackerError, Placement, PluginError, PluginInfo, PluginKind,
-    Registry, fits_sheet, oversized_sheet,
+    Registry, finish_with_oversized, fits_sheet,
 };
 
 /// The registered name of this packer.
@@ -55,13 +55,7 @@ impl Packer for RowsPacker {
             x += w;
             row_h = row_h.max(h);
         }
-        for &i in &oversized {
-            let (k, size) = oversized_sheet(&items[i as usize], max_sheet);
-            placements[i as usize] =
-                Placement { sheet: sheets.len() as u32, quarter_turns: k, x: 0, y: 0 };
-            sheets.push(size);
-        }
-        Ok(PackOutput { placements, sheets, oversized })
+        Ok(finish_with_oversized(items, max_sheet, placements, sheets, oversized))
     }
 }
 

@@ -6,7 +6,7 @@ use std::collections::VecDeque;
 
 use scanatlas_core::plugin::{
     PackItem, PackOutput, Packer, PackerError, Placement, PluginError, PluginInfo, PluginKind,
-    Registry, fits_sheet, oversized_sheet,
+    Registry, finish_with_oversized, fits_sheet,
 };
 
 /// The registered name of this packer.
@@ -102,14 +102,8 @@ impl Packer for SkylinePacker {
                 return Err(PackerError::Failed(format!("item {i} does not fit an empty sheet")));
             }
         }
-        let mut sheets = vec![max_sheet; skies.len()];
-        for &i in &oversized {
-            let (turn, size) = oversized_sheet(&items[i as usize], max_sheet);
-            placements[i as usize] =
-                Placement { sheet: sheets.len() as u32, quarter_turns: turn, x: 0, y: 0 };
-            sheets.push(size);
-        }
-        Ok(PackOutput { placements, sheets, oversized })
+        let sheets = vec![max_sheet; skies.len()];
+        Ok(finish_with_oversized(items, max_sheet, placements, sheets, oversized))
     }
 }
 

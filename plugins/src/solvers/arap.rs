@@ -32,7 +32,7 @@ use scanatlas_core::geometry::{
 };
 use scanatlas_core::plugin::{
     LocalProblem, LocalSolver, ParamInfo, ParamValue, Params, PluginError, PluginInfo, PluginKind,
-    Registry, SolveError, SolveReport, get_f64,
+    Registry, SolveError, SolveReport,
 };
 
 /// The registered name of this solver.
@@ -99,22 +99,8 @@ pub fn info() -> PluginInfo {
 impl ArapParams {
     /// Reads and checks the parameters given by the user, with the declared defaults.
     pub fn from_params(params: &Params) -> Result<Self, PluginError> {
-        let info = info();
-        let bad = |param: &str, msg: &str| PluginError::BadParam {
-            kind: info.kind,
-            name: NAME.to_string(),
-            param: param.to_string(),
-            msg: msg.to_string(),
-        };
-        let it = get_f64(params, &info, "max-iterations")?;
-        if !(0.0..=1e6).contains(&it) || it.fract() != 0.0 {
-            return Err(bad("max-iterations", "expected a whole number from 0 to 1000000"));
-        }
-        let tolerance = get_f64(params, &info, "tolerance")?;
-        if !(0.0..1.0).contains(&tolerance) {
-            return Err(bad("tolerance", "expected a number in [0, 1)"));
-        }
-        Ok(Self { max_iterations: it as u32, tolerance })
+        let (max_iterations, tolerance) = super::iteration_params(params, &info(), 1_000_000)?;
+        Ok(Self { max_iterations, tolerance })
     }
 }
 

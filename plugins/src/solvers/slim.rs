@@ -30,7 +30,7 @@ use faer::{Conj, MatMut, Par, Side};
 use scanatlas_core::geometry::{EnergySum, Mat2, orientation, signed_area2, svd2_signed};
 use scanatlas_core::plugin::{
     LocalProblem, LocalSolver, ParamInfo, ParamValue, Params, PluginError, PluginInfo, PluginKind,
-    Registry, SolveError, SolveReport, get_f64,
+    Registry, SolveError, SolveReport,
 };
 
 use super::arap::{
@@ -120,27 +120,14 @@ impl SlimParams {
     /// Reads and checks the parameters given by the user, with the declared defaults.
     pub fn from_params(params: &Params) -> Result<Self, PluginError> {
         let info = info();
-        let bad = |param: &str, msg: &str| PluginError::BadParam {
-            kind: info.kind,
-            name: NAME.to_string(),
-            param: param.to_string(),
-            msg: msg.to_string(),
-        };
-        let it = get_f64(params, &info, "max-iterations")?;
-        if !(0.0..=1e5).contains(&it) || it.fract() != 0.0 {
-            return Err(bad("max-iterations", "expected a whole number from 0 to 100000"));
-        }
-        let tolerance = get_f64(params, &info, "tolerance")?;
-        if !(0.0..1.0).contains(&tolerance) {
-            return Err(bad("tolerance", "expected a number in [0, 1)"));
-        }
+        let (it, tolerance) = super::iteration_params(params, &info, 100_000)?;
         let init = match params.get("init") {
             None => Init::Arap,
             Some(ParamValue::Text(t)) if t == "arap" => Init::Arap,
             Some(ParamValue::Text(t)) if t == "none" => Init::None,
-            Some(_) => return Err(bad("init", "expected `arap` or `none`")),
+            Some(_) => return Err(super::bad_param(&info, "init", "expected `arap` or `none`")),
         };
-        Ok(Self { max_iterations: it as u32, tolerance, init })
+        Ok(Self { max_iterations: it, tolerance, init })
     }
 }
 
