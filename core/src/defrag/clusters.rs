@@ -435,6 +435,7 @@ fn import(master: &mut Engine<'_>, cluster: &[u32], busy: &[bool], results: Vec<
             state: OpState::Queued,
             failures: 0,
             version: 0,
+            island: false,
         });
     }
     for list in &mut master.chart_ops {

@@ -131,6 +131,7 @@ impl Engine<'_> {
         let features = self.features(op);
         let o = &mut self.ops[op as usize];
         o.version += 1;
+        o.island = features.island_lookahead;
         match scorer.score(&features) {
             Score::Appeal(x) => {
                 o.state = OpState::Queued;
@@ -200,6 +201,7 @@ impl Engine<'_> {
                         state: OpState::Vetoed(Veto::ZeroArea),
                         failures: 0,
                         version: 0,
+                        island: false,
                     });
                     list.push(id);
                     self.chart_ops[by_other[i].0.idx()].push(id);
@@ -229,7 +231,19 @@ impl Engine<'_> {
         for c in neighbours {
             for i in 0..self.chart_ops[c.idx()].len() {
                 let op = self.chart_ops[c.idx()][i];
-                if self.ops[op as usize].state == OpState::Vetoed(Veto::Boundary) {
+                if self.ops[op as usize].state != OpState::Vetoed(Veto::Boundary) {
+                    continue;
+                }
+                // An operation of a was scored just above. One between two other charts has the
+                // very features it had when it was vetoed (neither chart changed), except for the
+                // look-ahead; scores are functions of the features, so unless the look-ahead
+                // changed, rescoring it would only repeat the veto.
+                let (x, y) = self.stay_and_move(op);
+                if x == a || y == a {
+                    continue;
+                }
+                let island = x != y && self.island_lookahead(x, y);
+                if island != self.ops[op as usize].island {
                     self.rescore(op, scorer, queue, scope);
                 }
             }

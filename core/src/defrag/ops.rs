@@ -34,6 +34,8 @@ pub(crate) struct EngineOp {
     pub failures: u32,
     /// Bumped on every rescore; queue entries of older versions are stale.
     pub version: u32,
+    /// The small-island look-ahead its last score saw (see `Engine::after_success`).
+    pub island: bool,
 }
 
 impl EngineOp {
@@ -73,17 +75,19 @@ impl Engine<'_> {
         (self.t.face_chart[h0.face()], self.t.face_chart[h1.face()])
     }
 
+    /// The charts of `op` as (the chart that stays, the chart that moves): the one with more faces
+    /// stays, ties going to the smaller id. Equal for an intra-chart operation.
+    pub fn stay_and_move(&self, op: u32) -> (ChartId, ChartId) {
+        let (c0, c1) = self.op_charts(op);
+        let (n0, n1) = (self.t.charts[c0.idx()].n_faces, self.t.charts[c1.idx()].n_faces);
+        if n0 > n1 || (n0 == n1 && c0 <= c1) { (c0, c1) } else { (c1, c0) }
+    }
+
     /// Computes the geometry of `op`, leaving its distinct vertex pairs `(stays, moves)` in
     /// `self.pairs` (pairs whose two vertices are already one are left out).
     pub fn op_geometry(&mut self, op: u32) -> OpGeometry {
-        let (c0, c1) = self.op_charts(op);
-        let inter = c0 != c1;
-        let (a, b) = if !inter {
-            (c0, c0)
-        } else {
-            let (n0, n1) = (self.t.charts[c0.idx()].n_faces, self.t.charts[c1.idx()].n_faces);
-            if n0 > n1 || (n0 == n1 && c0 < c1) { (c0, c1) } else { (c1, c0) }
-        };
+        let (a, b) = self.stay_and_move(op);
+        let inter = a != b;
         self.pairs.clear();
         let (mut len_a, mut len_b) = (0.0, 0.0);
         let t = &*self.t;
@@ -149,7 +153,7 @@ impl Engine<'_> {
     /// The small-island look-ahead of the reference (digest §4.4): true when a and b have at most
     /// five neighbours each and, for some neighbour c, the charts reachable from a without
     /// crossing c are at most five (a sits in a small island that only c encloses).
-    fn island_lookahead(&self, a: ChartId, b: ChartId) -> bool {
+    pub(crate) fn island_lookahead(&self, a: ChartId, b: ChartId) -> bool {
         const STEPS: usize = 5;
         let mut around = Vec::with_capacity(2 * STEPS + 2);
         if !self.neighbours_within(a, STEPS, &mut around) {
@@ -240,6 +244,7 @@ pub(crate) fn initial_ops(t: &crate::topology::Topology) -> (Vec<EngineOp>, Vec<
             state: OpState::Vetoed(Veto::ZeroArea),
             failures: 0,
             version: 0,
+            island: false,
         });
     }
     (ops, chart_ops)

@@ -3,7 +3,7 @@
 //! measure it: `(σ1 − 1)² + (σ2 − 1)²` of the Jacobian that maps the target onto the current
 //! triangle, weighted by twice the target's area.
 
-use super::svd::{Mat2, singular_values};
+use super::svd::{Mat2, closest_rotation, singular_values};
 
 /// A triangle given by its three corners.
 pub type Tri2 = [[f64; 2]; 3];
@@ -67,6 +67,34 @@ pub fn isometric_energy(target: Tri2, current: Tri2) -> f64 {
     let [s1, s2] = singular_values(j);
     let e = (s1 - 1.0) * (s1 - 1.0) + (s2 - 1.0) * (s2 - 1.0);
     if e < ENERGY_NOISE { 0.0 } else { e }
+}
+
+/// The closest proper rotation to a Jacobian `j` and the isometric energy `(σ1 − 1)² + (σ2 − 1)²`
+/// of `j`, together: the fused local step and energy of the ARAP iteration.
+///
+/// Both come from the similarity/anti-similarity split of `j` (see `svd`): with `q` and `r` the
+/// norms of the two parts, the rotation is the normalized similarity part and the singular values
+/// are `q + r` and `|q − r|`. That costs two square roots per triangle, against the separate
+/// rotation and normalized SVD that the plain functions would take. Matrices of extreme scale
+/// (or not finite) go through [`closest_rotation`] and [`singular_values`], which guard them.
+#[inline]
+pub fn closest_rotation_and_energy(j: Mat2) -> (Mat2, f64) {
+    let e = 0.5 * (j[0][0] + j[1][1]);
+    let f = 0.5 * (j[0][0] - j[1][1]);
+    let g = 0.5 * (j[1][0] + j[0][1]);
+    let h = 0.5 * (j[1][0] - j[0][1]);
+    let q = (e * e + h * h).sqrt();
+    let r = (f * f + g * g).sqrt();
+    if (1e-150..=1e150).contains(&q) && r <= 1e150 {
+        let rot = [[e / q, -h / q], [h / q, e / q]];
+        let (s1, s2) = (q + r, (q - r).abs());
+        let en = (s1 - 1.0) * (s1 - 1.0) + (s2 - 1.0) * (s2 - 1.0);
+        (rot, if en < ENERGY_NOISE { 0.0 } else { en })
+    } else {
+        let [s1, s2] = singular_values(j);
+        let en = (s1 - 1.0) * (s1 - 1.0) + (s2 - 1.0) * (s2 - 1.0);
+        (closest_rotation(j), if en < ENERGY_NOISE { 0.0 } else { en })
+    }
 }
 
 /// An accumulator of the area-weighted mean isometric energy.
@@ -206,5 +234,32 @@ mod tests {
         ];
         let m = mean_isometric_energy(&tris, &uv, &targets);
         assert!((m - 2.0 / 5.0).abs() < 1e-12, "{m}");
+    }
+
+    #[test]
+    fn fused_rotation_and_energy_match_the_separate_ones() {
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64 * 4.0 - 2.0
+        };
+        for i in 0..10_000 {
+            let scale = [1.0, 1e-3, 1e3, 1e-160, 1e100][i % 5];
+            let j = [[next() * scale, next() * scale], [next() * scale, next() * scale]];
+            let (rot, en) = closest_rotation_and_energy(j);
+            let want_rot = closest_rotation(j);
+            let [s1, s2] = singular_values(j);
+            let want = (s1 - 1.0).powi(2) + (s2 - 1.0).powi(2);
+            let want = if want < ENERGY_NOISE { 0.0 } else { want };
+            for (a, b) in rot.iter().flatten().zip(want_rot.iter().flatten()) {
+                assert!((a - b).abs() < 1e-12, "{j:?}: {rot:?} vs {want_rot:?}");
+            }
+            assert!((en - want).abs() <= 1e-12 * want.max(1.0), "{j:?}: {en} vs {want}");
+        }
+        // Exact rotations have zero energy.
+        let (_, en) = closest_rotation_and_energy(crate::geometry::svd::rotation(0.7));
+        assert_eq!(en, 0.0);
     }
 }

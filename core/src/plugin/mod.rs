@@ -72,7 +72,8 @@ pub enum Score {
 }
 
 /// Ranks candidate merge operations. Pure and cheap: it is called for every operation after every
-/// accepted merge that touches it.
+/// accepted merge that touches it. The score must be a function of the features alone (the engine
+/// skips rescoring an operation whose features did not change).
 pub trait MergeScorer: Send + Sync {
     fn score(&self, op: &OpFeatures) -> Score;
 }

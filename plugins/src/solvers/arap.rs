@@ -28,7 +28,8 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 use scanatlas_core::geometry::{
-    EnergySum, Mat2, Tri2, closest_rotation, orientation, signed_area2,
+    EnergySum, Mat2, Tri2, closest_rotation_and_energy, energy_weight, isometric_energy,
+    orientation, signed_area2,
 };
 use scanatlas_core::plugin::{
     LocalProblem, LocalSolver, ParamInfo, ParamValue, Params, PluginError, PluginInfo, PluginKind,
@@ -109,6 +110,26 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
     registry.register_solver(info(), |params| Ok(Box::new(ArapSolver::from_params(params)?)))
 }
 
+/// What the local step found out about the iterate it ran on.
+#[derive(Clone, Copy, Debug)]
+struct Evaluation {
+    /// The area-weighted mean isometric energy (up to rounding).
+    energy: f64,
+    /// Whether no guarded triangle left its expected orientation.
+    admissible: bool,
+    /// How many unguarded triangles are not oriented as expected.
+    wrong: usize,
+}
+
+/// The exact area-weighted mean isometric energy of the problem's current layout.
+fn mean_energy(problem: &LocalProblem) -> f64 {
+    let mut sum = EnergySum::default();
+    for (&t, &target) in problem.triangles.iter().zip(&problem.targets) {
+        sum.add(target, corners(&problem.uv, t));
+    }
+    sum.mean()
+}
+
 /// Per-triangle data computed once per problem.
 #[derive(Clone, Copy, Debug, Default)]
 struct TriData {
@@ -120,6 +141,8 @@ struct TriData {
     finv: Option<Mat2>,
     /// The weight of the edge opposite each corner (0.5·cot of the target angle there).
     w: [f64; 3],
+    /// The weight of the triangle's energy (`energy_weight` of the target).
+    energy_weight: f64,
     /// The value slot of the off-diagonal matrix entry of the edge opposite each corner, or `NONE`
     /// when an endpoint is fixed.
     slot: [u32; 3],
@@ -390,6 +413,7 @@ impl ArapSolver {
                 p,
                 finv,
                 w: cot_weights(target),
+                energy_weight: energy_weight(target),
                 slot: [NONE; 3],
                 expected,
                 guarded,
@@ -587,30 +611,52 @@ impl ArapSolver {
             .map_err(|e| SolveError::Factorization(format!("{e:?}")))
     }
 
-    /// One local/global iteration from `uv` into `self.trial`. Returns false when the solution is
-    /// not finite.
-    fn iterate(
-        &mut self,
-        uv: &[[f64; 2]],
-        symbolic: &SymbolicCholesky<usize>,
-        factor: Factor,
-    ) -> bool {
+    /// The local step at `uv`: the closest rotation of each triangle's Jacobian, fused with the
+    /// rotational right-hand side, and with the evaluation of `uv` itself (its energy, whether it is
+    /// admissible, and how many unguarded triangles are not oriented as expected), since both need
+    /// the same Jacobians. The evaluation uses `closest_rotation_and_energy`, equal to the exact
+    /// energy up to rounding; the energy returned to the caller is recomputed exactly.
+    fn local_step(&mut self, uv: &[[f64; 2]], targets: &[Tri2]) -> Evaluation {
         let nf = self.free.len();
         self.rhs.clear();
         self.rhs.extend_from_slice(&self.rhs_fixed);
-        // Local step (closest rotation of each Jacobian) fused with the rotational right-hand side.
-        for t in &self.tris {
+        let mut sum = EnergySum::default();
+        let mut admissible = true;
+        let mut wrong = 0;
+        for (t, target) in self.tris.iter().zip(targets) {
             let x = corners(uv, t.v);
+            if orientation(x) != t.expected {
+                if t.guarded {
+                    admissible = false;
+                } else {
+                    wrong += 1;
+                }
+            }
             let rot = match t.finv {
                 Some(fi) => {
                     let (g1, g2) = (sub(x[1], x[0]), sub(x[2], x[0]));
-                    closest_rotation([
+                    let (rot, energy) = closest_rotation_and_energy([
                         [g1[0] * fi[0][0] + g2[0] * fi[1][0], g1[0] * fi[0][1] + g2[0] * fi[1][1]],
                         [g1[1] * fi[0][0] + g2[1] * fi[1][0], g1[1] * fi[0][1] + g2[1] * fi[1][1]],
-                    ])
+                    ]);
+                    if t.energy_weight > 0.0 && energy.is_finite() {
+                        sum.weighted += t.energy_weight * energy;
+                        sum.weight += t.energy_weight;
+                    }
+                    rot
                 }
-                // No Jacobian for a degenerate target: keep its frame unrotated.
-                None => [[1.0, 0.0], [0.0, 1.0]],
+                // No Jacobian for a degenerate target: keep its frame unrotated. Its energy is
+                // what the exact sum would give it (normally zero weight).
+                None => {
+                    if t.energy_weight > 0.0 {
+                        let energy = isometric_energy(*target, x);
+                        if energy.is_finite() {
+                            sum.weighted += t.energy_weight * energy;
+                            sum.weight += t.energy_weight;
+                        }
+                    }
+                    [[1.0, 0.0], [0.0, 1.0]]
+                }
             };
             let frame = [[0.0, 0.0], t.p[0], t.p[1]];
             for k in 0..3 {
@@ -632,7 +678,19 @@ impl ArapSolver {
                 }
             }
         }
-        // Global step.
+        Evaluation { energy: sum.mean(), admissible, wrong }
+    }
+
+    /// The global step after [`Self::local_step`]: solves for the free vertices and writes the
+    /// next iterate (`uv` with them replaced) into `self.trial`. Returns false when the solution
+    /// is not finite.
+    fn global_step(
+        &mut self,
+        uv: &[[f64; 2]],
+        symbolic: &SymbolicCholesky<usize>,
+        factor: Factor,
+    ) -> bool {
+        let nf = self.free.len();
         let Some(buf) = self.mem.as_mut() else { return false };
         let stack = MemStack::new(buf);
         let x = MatMut::from_column_major_slice_mut(&mut self.rhs, nf, 2);
@@ -662,27 +720,6 @@ impl ArapSolver {
         true
     }
 
-    /// The energy of `self.trial`, whether it is admissible (it must not flip a triangle that was
-    /// not flipped at the start: one that was oriented as expected and no longer is, degenerate
-    /// included), and how many unguarded triangles are still not oriented as expected.
-    fn evaluate_trial(&self, problem: &LocalProblem) -> (f64, bool, usize) {
-        let mut sum = EnergySum::default();
-        let mut admissible = true;
-        let mut wrong = 0;
-        for (t, &target) in self.tris.iter().zip(&problem.targets) {
-            let x = corners(&self.trial, t.v);
-            if orientation(x) != t.expected {
-                if t.guarded {
-                    admissible = false;
-                } else {
-                    wrong += 1;
-                }
-            }
-            sum.add(target, x);
-        }
-        (sum.mean(), admissible, wrong)
-    }
-
     /// How many triangles of `uv` are not oriented as expected.
     fn count_wrong(&self, uv: &[[f64; 2]]) -> usize {
         self.tris.iter().filter(|t| orientation(corners(uv, t.v)) != t.expected).count()
@@ -692,13 +729,7 @@ impl ArapSolver {
 impl LocalSolver for ArapSolver {
     fn solve(&mut self, problem: &mut LocalProblem) -> Result<SolveReport, SolveError> {
         problem.validate()?;
-        let mut energy = {
-            let mut sum = EnergySum::default();
-            for (&t, &target) in problem.triangles.iter().zip(&problem.targets) {
-                sum.add(target, corners(&problem.uv, t));
-            }
-            sum.mean()
-        };
+        let mut energy = mean_energy(problem);
         let mut report = SolveReport { energy_before: energy, energy_after: energy, iterations: 0 };
         self.number_free_vertices(problem)?;
         if self.free.is_empty() || self.params.max_iterations == 0 {
@@ -752,36 +783,55 @@ impl LocalSolver for ArapSolver {
         self.current.extend_from_slice(&problem.uv);
         let mut running = energy;
         let mut stalled = 0;
-        while report.iterations < self.params.max_iterations {
+        let mut taken = false;
+        // Each pass evaluates the iterate in `self.current` during its local step (the same
+        // Jacobians serve both), decides whether to keep it and whether to stop, and only then
+        // runs the global step towards the next iterate.
+        loop {
+            let current = std::mem::take(&mut self.current);
+            let eval = self.local_step(&current, &problem.targets);
+            self.current = current;
+            if report.iterations == 0 {
+                // The start, evaluated like every iterate so that comparisons are like for like.
+                energy = eval.energy;
+                running = eval.energy;
+            } else {
+                let Evaluation { energy: next, admissible, wrong: next_wrong } = eval;
+                if admissible && (next_wrong < wrong || (next_wrong == wrong && next <= energy)) {
+                    for &v in &self.free {
+                        problem.uv[v as usize] = self.current[v as usize];
+                    }
+                    taken = true;
+                    stalled = if next < energy || next_wrong < wrong { 0 } else { stalled + 1 };
+                    energy = next;
+                    wrong = next_wrong;
+                } else {
+                    stalled += 1;
+                }
+                let rising = next > running;
+                let change = (running - next).abs() / running;
+                running = next;
+                if ((energy == 0.0 || running == 0.0) && wrong == 0)
+                    || change < self.params.tolerance
+                    || (rising && stalled >= STALL_LIMIT)
+                {
+                    break;
+                }
+            }
+            if report.iterations >= self.params.max_iterations {
+                break;
+            }
             report.iterations += 1;
             let current = std::mem::take(&mut self.current);
-            let finite = self.iterate(&current, &symbolic, factor);
+            let finite = self.global_step(&current, &symbolic, factor);
             self.current = current;
             if !finite {
                 return Err(SolveError::Diverged);
             }
-            let (next, admissible, next_wrong) = self.evaluate_trial(problem);
-            if admissible && (next_wrong < wrong || (next_wrong == wrong && next <= energy)) {
-                for &v in &self.free {
-                    problem.uv[v as usize] = self.trial[v as usize];
-                }
-                stalled = if next < energy || next_wrong < wrong { 0 } else { stalled + 1 };
-                energy = next;
-                wrong = next_wrong;
-                report.energy_after = energy;
-            } else {
-                stalled += 1;
-            }
-            let rising = next > running;
-            let change = (running - next).abs() / running;
-            running = next;
             std::mem::swap(&mut self.current, &mut self.trial);
-            if ((energy == 0.0 || running == 0.0) && wrong == 0)
-                || change < self.params.tolerance
-                || (rising && stalled >= STALL_LIMIT)
-            {
-                break;
-            }
+        }
+        if taken {
+            report.energy_after = mean_energy(problem);
         }
         Ok(report)
     }
