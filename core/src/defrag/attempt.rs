@@ -392,6 +392,15 @@ impl Engine<'_> {
 
     /// Keeps the attempt: face caches, chart caches and lists, atlas sums, logs.
     fn commit(&mut self, g: &OpGeometry, (out_num, out_den, in_num): (f64, f64, f64)) {
+        // The re-optimized and the fused vertices change the geometry of the seams through them;
+        // the rest of the moved chart only moved rigidly.
+        self.commits += 1;
+        for &v in &self.free {
+            self.vert_changed[v as usize] = self.commits;
+        }
+        for &(v, _) in &self.seeds {
+            self.vert_changed[v as usize] = self.commits;
+        }
         let mut d_area2 = 0.0;
         let mut d_perimeter = 0.0;
         for i in 0..self.opt_faces.len() {

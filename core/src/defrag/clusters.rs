@@ -291,6 +291,8 @@ struct ClusterResult {
     vert_pos: Vec<[f64; 2]>,
     vert_chart: Vec<ChartId>,
     vert_fan: Vec<(u32, u32)>,
+    vert_changed: Vec<u32>,
+    commits: u32,
     charts: Vec<(u32, Chart, Vec<u32>)>,
     ops: Vec<EngineOp>,
     energy_delta: f64,
@@ -354,6 +356,8 @@ fn run_cluster(
             .iter()
             .map(|&v| (fe.fan_head[v as usize], fe.fan_tail[v as usize]))
             .collect(),
+        vert_changed: verts.iter().map(|&v| fe.vert_changed[v as usize]).collect(),
+        commits: fe.commits,
         charts: charts
             .iter()
             .map(|&c| (c, fe.t.charts[c as usize].clone(), fe.chart_faces[c as usize].clone()))
@@ -405,7 +409,11 @@ fn import(master: &mut Engine<'_>, cluster: &[u32], busy: &[bool], results: Vec<
             master.t.uv_pos[v] = r.vert_pos[i];
             master.t.uv_chart[v] = r.vert_chart[i];
             (master.fan_head[v], master.fan_tail[v]) = r.vert_fan[i];
+            master.vert_changed[v] = r.vert_changed[i];
         }
+        // Later commits must count past every cluster's, so that the operations' cached
+        // geometry (stamped with their cluster's count) stays comparable.
+        master.commits = master.commits.max(r.commits);
         for (c, chart, faces) in r.charts {
             master.t.charts[c as usize] = chart;
             master.chart_faces[c as usize] = faces;
@@ -436,6 +444,7 @@ fn import(master: &mut Engine<'_>, cluster: &[u32], busy: &[bool], results: Vec<
             failures: 0,
             version: 0,
             island: false,
+            geom: None,
         });
     }
     for list in &mut master.chart_ops {

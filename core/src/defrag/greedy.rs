@@ -202,6 +202,7 @@ impl Engine<'_> {
                         failures: 0,
                         version: 0,
                         island: false,
+                        geom: None,
                     });
                     list.push(id);
                     self.chart_ops[by_other[i].0.idx()].push(id);

@@ -36,6 +36,21 @@ pub(crate) struct EngineOp {
     pub version: u32,
     /// The small-island look-ahead its last score saw (see `Engine::after_success`).
     pub island: bool,
+    /// Its seam geometry as last computed for scoring (see `Engine::features`).
+    pub geom: Option<CachedGeometry>,
+}
+
+/// The part of an operation's geometry that rigid motions of either chart leave unchanged: the
+/// dissolved length on each side, the mean alignment error and the number of vertex pairs. It
+/// holds while the operation joins the same two charts and no vertex on its seams has changed
+/// other than rigidly since `at` (a value of `Engine::commits`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct CachedGeometry {
+    charts: (ChartId, ChartId),
+    len: [f64; 2],
+    error: f64,
+    pairs: u32,
+    at: u32,
 }
 
 impl EngineOp {
@@ -200,27 +215,66 @@ impl Engine<'_> {
     }
 
     /// The scorer's view of `op` in the current layout.
+    ///
+    /// The seam geometry is recomputed only when a vertex on the operation's seams has changed
+    /// other than rigidly since it was last computed (or its charts changed): after a merge into
+    /// a big chart every operation of that chart is rescored, and most of their seams lie far
+    /// from the re-optimized patch. The cached values equal fresh ones up to rounding.
     pub fn features(&mut self, op: u32) -> OpFeatures {
-        let g = self.op_geometry(op);
-        let (ca, cb) = (&self.t.charts[g.a.idx()], &self.t.charts[g.b.idx()]);
+        let (c0, c1) = self.op_charts(op);
+        let (a, b) = self.stay_and_move(op);
+        let cached = self.ops[op as usize]
+            .geom
+            .filter(|g| g.charts == (c0, c1) && self.seams_kept(op, g.at));
+        let geom = match cached {
+            Some(g) => g,
+            None => {
+                let g = self.op_geometry(op);
+                let len = if g.a == c0 { [g.len_a, g.len_b] } else { [g.len_b, g.len_a] };
+                let fresh = CachedGeometry {
+                    charts: (c0, c1),
+                    len,
+                    error: g.error,
+                    pairs: self.pairs.len() as u32,
+                    at: self.commits,
+                };
+                self.ops[op as usize].geom = Some(fresh);
+                fresh
+            }
+        };
+        let (len_a, len_b) =
+            if a == c0 { (geom.len[0], geom.len[1]) } else { (geom.len[1], geom.len[0]) };
+        let inter = a != b;
+        let (ca, cb) = (&self.t.charts[a.idx()], &self.t.charts[b.idx()]);
         let o = &self.ops[op as usize];
         OpFeatures {
             op_id: op,
-            inter_chart: g.inter,
+            inter_chart: inter,
             uv_area_a: ca.area_uv,
             uv_area_b: cb.area_uv,
             area_3d_a: ca.area_3d,
             area_3d_b: cb.area_3d,
             perimeter_a: ca.perimeter_uv,
             perimeter_b: cb.perimeter_uv,
-            seam_length_a: g.len_a,
-            seam_length_b: g.len_b,
-            mean_match_error: g.error,
-            pairs: self.pairs.len() as u32,
+            seam_length_a: len_a,
+            seam_length_b: len_b,
+            mean_match_error: geom.error,
+            pairs: geom.pairs,
             seam_edges: o.links.len() as u32,
             failures: o.failures,
-            island_lookahead: g.inter && self.island_lookahead(g.a, g.b),
+            island_lookahead: inter && self.island_lookahead(a, b),
         }
+    }
+
+    /// Whether no vertex on the seams of `op` has changed other than rigidly after commit `at`.
+    fn seams_kept(&self, op: u32, at: u32) -> bool {
+        self.ops[op as usize].links.iter().all(|&l| {
+            self.t.links[l.idx()].sides.iter().all(|&h| {
+                [h.idx(), h.next().idx()]
+                    .iter()
+                    .all(|&c| self.vert_changed[self.t.corner_uv[c].idx()] <= at)
+            })
+        })
     }
 }
 
@@ -245,6 +299,7 @@ pub(crate) fn initial_ops(t: &crate::topology::Topology) -> (Vec<EngineOp>, Vec<
             failures: 0,
             version: 0,
             island: false,
+            geom: None,
         });
     }
     (ops, chart_ops)

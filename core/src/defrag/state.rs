@@ -66,6 +66,10 @@ pub(crate) struct Engine<'t> {
     pub log: Logs,
     pub ops: Vec<EngineOp>,
     pub chart_ops: Vec<Vec<u32>>,
+    /// Accepted merges so far, and for each UV vertex the count at which it last changed other
+    /// than by a rigid motion of its chart (moved by a solve, or fused): see `CachedGeometry`.
+    pub commits: u32,
+    pub vert_changed: Vec<u32>,
     pub report: MergeReport,
     // Scratch buffers, reused by every attempt (see `attempt` and `patch` for their meaning).
     pub pairs: Vec<[UvVertId; 2]>,
@@ -112,6 +116,8 @@ struct Parts {
     grid_live: usize,
     ops: Vec<EngineOp>,
     chart_ops: Vec<Vec<u32>>,
+    commits: u32,
+    vert_changed: Vec<u32>,
     report: MergeReport,
 }
 
@@ -246,6 +252,8 @@ impl<'t> Engine<'t> {
             grid_live: mergeable_faces,
             ops,
             chart_ops,
+            commits: 0,
+            vert_changed: vec![0; nv],
             report,
         };
         Self::assemble(t, opts, parts)
@@ -273,6 +281,8 @@ impl<'t> Engine<'t> {
             grid_live: self.grid_live,
             ops: self.ops.clone(),
             chart_ops: self.chart_ops.clone(),
+            commits: self.commits,
+            vert_changed: self.vert_changed.clone(),
             report: MergeReport::default(),
         };
         Engine::assemble(t, self.opts.clone(), parts)
@@ -310,6 +320,8 @@ impl<'t> Engine<'t> {
             },
             ops: p.ops,
             chart_ops: p.chart_ops,
+            commits: p.commits,
+            vert_changed: p.vert_changed,
             report: p.report,
             pairs: Vec::new(),
             pts: Vec::new(),

@@ -97,10 +97,24 @@ impl Coverage {
     /// Every tile's words as `(tx, ty, words)`, writable, in parallel, in the same order as
     /// [`TileStore::par_tiles_mut`] so the two can be zipped.
     pub fn par_tiles_mut(&mut self) -> impl IndexedParallelIterator<Item = (u32, u32, &mut [u64])> {
+        let rows = self.words.len() / (self.tiles_x as usize * TILE_WORDS);
+        self.par_tile_rows_mut(0, rows as u32)
+    }
+
+    /// The tiles of tile rows `ty0..ty1` as in [`Self::par_tiles_mut`] (rows past the end are
+    /// ignored), in the order of [`TileStore::par_tile_rows_mut`].
+    pub fn par_tile_rows_mut(
+        &mut self,
+        ty0: u32,
+        ty1: u32,
+    ) -> impl IndexedParallelIterator<Item = (u32, u32, &mut [u64])> {
         let tiles_x = self.tiles_x;
-        self.words.par_chunks_mut(TILE_WORDS).enumerate().map(move |(k, t)| {
+        let row = tiles_x as usize * TILE_WORDS;
+        let end = (ty1 as usize * row).min(self.words.len());
+        let start = (ty0 as usize * row).min(end);
+        self.words[start..end].par_chunks_mut(TILE_WORDS).enumerate().map(move |(k, t)| {
             let k = k as u32;
-            (k % tiles_x, k / tiles_x, t)
+            (k % tiles_x, ty0 + k / tiles_x, t)
         })
     }
 

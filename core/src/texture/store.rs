@@ -128,15 +128,28 @@ impl TileStore {
 
     /// Every tile as `(tx, ty, bytes)`, writable, in parallel.
     pub fn par_tiles_mut(&mut self) -> impl IndexedParallelIterator<Item = (u32, u32, &mut [u8])> {
+        self.par_tile_rows_mut(0, self.tiles_y)
+    }
+
+    /// The tiles of tile rows `ty0..ty1` as `(tx, ty, bytes)`, writable, in parallel, in the
+    /// order of [`Self::par_tiles_mut`] (rows past the last are ignored). Working through a big
+    /// sheet a band of rows at a time lets the caller release what it read in between.
+    pub fn par_tile_rows_mut(
+        &mut self,
+        ty0: u32,
+        ty1: u32,
+    ) -> impl IndexedParallelIterator<Item = (u32, u32, &mut [u8])> {
         let tiles_x = self.tiles_x;
         let n = self.tile_bytes();
-        self.map.par_chunks_mut(n).enumerate().map(move |(k, t)| {
+        let row = tiles_x as usize * n;
+        let (ty0, ty1) = (ty0.min(self.tiles_y), ty1.min(self.tiles_y));
+        let (start, end) = (ty0 as usize * row, ty1.max(ty0) as usize * row);
+        self.map[start..end].par_chunks_mut(n).enumerate().map(move |(k, t)| {
             let k = k as u32;
-            (k % tiles_x, k / tiles_x, t)
+            (k % tiles_x, ty0 + k / tiles_x, t)
         })
     }
 
-    /// The bytes of pixel `(x, y)` (column, row from the top).
     #[inline]
     pub fn pixel(&self, x: u32, y: u32) -> &[u8] {
         let bpp = self.format.bytes_per_pixel();

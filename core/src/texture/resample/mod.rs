@@ -315,20 +315,34 @@ pub fn resample_sheets(
         report.texels_total += u64::from(w) * u64::from(h);
 
         let t = Instant::now();
-        let counts = store
-            .par_tiles_mut()
-            .zip(cov.par_tiles_mut())
-            .map(|((tx, ty, px), (_, _, bits))| {
-                let rect = super::raster::PixelRect::new(
-                    tx * TILE,
-                    ty * TILE,
-                    ((tx + 1) * TILE).min(w),
-                    ((ty + 1) * TILE).min(h),
-                );
-                let t = (ty * w.div_ceil(TILE) + tx) as usize;
-                ctx.paint_tile(px, bits, rect, h, buckets.tile(s, t))
-            })
-            .reduce(paint::Counts::default, paint::Counts::add);
+        // A band of tile rows at a time, releasing the input pages read in between: any output
+        // tile may sample any input sheet, and without this the resident set grows towards the
+        // size of all the inputs (3.2 GB for sixteen 8192² RGB sheets) instead of one band's worth.
+        let band = band_rows(store.tiles_x() as usize * store.tile_bytes());
+        let mut counts = paint::Counts::default();
+        let mut ty0 = 0;
+        while ty0 < store.tiles_y() {
+            let ty1 = ty0.saturating_add(band);
+            let c = store
+                .par_tile_rows_mut(ty0, ty1)
+                .zip(cov.par_tile_rows_mut(ty0, ty1))
+                .map(|((tx, ty, px), (_, _, bits))| {
+                    let rect = super::raster::PixelRect::new(
+                        tx * TILE,
+                        ty * TILE,
+                        ((tx + 1) * TILE).min(w),
+                        ((ty + 1) * TILE).min(h),
+                    );
+                    let t = (ty * w.div_ceil(TILE) + tx) as usize;
+                    ctx.paint_tile(px, bits, rect, h, buckets.tile(s, t))
+                })
+                .reduce(paint::Counts::default, paint::Counts::add);
+            counts = paint::Counts::add(counts, c);
+            for input in inputs {
+                input.release_tile_rows(0, input.tiles_y());
+            }
+            ty0 = ty1;
+        }
         let written = cov.count();
         report.texels_written += written;
         report.texels_copied += counts.copied;
@@ -362,6 +376,15 @@ pub fn resample_sheets(
         per_us(report.texels_copied + report.texels_sampled, report.ms_raster);
     report.mtexel_per_s = per_us(report.texels_total, report.ms_total);
     Ok(ResampleOutput { sheets, report })
+}
+
+/// About how many bytes of output one band of tile rows covers (see `resample_sheets`). The
+/// unit tests use a band of one tile row, so that their sheets are painted in several bands.
+const BAND_BYTES: usize = if cfg!(test) { 1 } else { 64 << 20 };
+
+/// How many tile rows of `row_bytes` each make one band (at least one).
+fn band_rows(row_bytes: usize) -> u32 {
+    (BAND_BYTES / row_bytes.max(1)).clamp(1, u32::MAX as usize) as u32
 }
 
 fn ms_since(t: Instant) -> f64 {
