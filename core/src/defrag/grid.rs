@@ -34,8 +34,7 @@ pub(crate) fn tri_bbox(t: &Tri2) -> [f64; 4] {
 
 impl FaceGrid {
     /// An empty grid covering `extent` (`[min x, min y, max x, max y]`) with square cells of side
-    /// `cell`, for faces `0..n_faces`. Points outside the extent fall into the border cells, which
-    /// is slower but still correct.
+    /// `cell`, for faces `0..n_faces`. Points outside the extent wrap around (see `axis_span`).
     pub fn new(extent: [f64; 4], cell: f64, n_faces: usize) -> Self {
         let cell = if cell.is_finite() && cell > 0.0 { cell } else { 1.0 };
         let span = |lo: f64, hi: f64| {
@@ -65,38 +64,46 @@ impl FaceGrid {
         }
     }
 
+    /// The cells an interval covers along one axis, as a first cell and a count: coordinates
+    /// wrap around the grid (cell `c` is cell `c mod n`), so charts that the merges move out of
+    /// the starting extent spread over all cells instead of piling into the border ones. Far
+    /// away faces that share a cell are only extra candidates, which the callers filter.
     #[inline]
-    fn axis(&self, x: f64, origin: f64, n: u32) -> u32 {
-        let c = ((x - origin) * self.inv_cell).floor();
-        if c.is_nan() || c < 0.0 {
-            0
-        } else if c >= f64::from(n - 1) {
-            n - 1
-        } else {
-            c as u32
+    fn axis_span(&self, lo: f64, hi: f64, origin: f64, n: u32) -> (u32, u32) {
+        let c0 = ((lo - origin) * self.inv_cell).floor();
+        let c1 = ((hi - origin) * self.inv_cell).floor();
+        if !(c0.is_finite() && c1.is_finite()) || c1 - c0 + 1.0 >= f64::from(n) {
+            return (0, n);
         }
+        let first = c0.rem_euclid(f64::from(n)) as u32;
+        (first.min(n - 1), (c1 - c0) as u32 + 1)
     }
 
+    /// The cells that `b` touches: first cell and count along x, then along y.
     #[inline]
-    fn range(&self, b: [f64; 4]) -> (u32, u32, u32, u32) {
+    fn spans(&self, b: [f64; 4]) -> ((u32, u32), (u32, u32)) {
         (
-            self.axis(b[0], self.origin[0], self.nx),
-            self.axis(b[1], self.origin[1], self.ny),
-            self.axis(b[2], self.origin[0], self.nx),
-            self.axis(b[3], self.origin[1], self.ny),
+            self.axis_span(b[0], b[2], self.origin[0], self.nx),
+            self.axis_span(b[1], b[3], self.origin[1], self.ny),
         )
+    }
+
+    /// The index of cell `(x0 + i, y0 + j)`, wrapped.
+    #[inline]
+    fn cell_index(&self, x0: u32, i: u32, y0: u32, j: u32) -> usize {
+        ((y0 + j) % self.ny) as usize * self.nx as usize + ((x0 + i) % self.nx) as usize
     }
 
     /// Adds face `f` with triangle `t` to every cell its bounding box touches.
     pub fn insert(&mut self, f: u32, t: &Tri2) {
-        let (x0, y0, x1, y1) = self.range(tri_bbox(t));
-        for y in y0..=y1 {
-            let row = (y as usize) * (self.nx as usize);
-            for x in x0..=x1 {
-                self.cells[row + x as usize].push(f);
+        let ((x0, nx), (y0, ny)) = self.spans(tri_bbox(t));
+        for j in 0..ny {
+            for i in 0..nx {
+                let c = self.cell_index(x0, i, y0, j);
+                self.cells[c].push(f);
             }
         }
-        self.entries += ((x1 - x0 + 1) * (y1 - y0 + 1)) as usize;
+        self.entries += (nx * ny) as usize;
     }
 
     /// Appends to `out` every face with an entry in a cell that `bbox` touches, each once.
@@ -106,11 +113,10 @@ impl FaceGrid {
             self.stamp.iter_mut().for_each(|s| *s = 0);
             self.epoch = 1;
         }
-        let (x0, y0, x1, y1) = self.range(bbox);
-        for y in y0..=y1 {
-            let row = (y as usize) * (self.nx as usize);
-            for x in x0..=x1 {
-                for &f in &self.cells[row + x as usize] {
+        let ((x0, nx), (y0, ny)) = self.spans(bbox);
+        for j in 0..ny {
+            for i in 0..nx {
+                for &f in &self.cells[self.cell_index(x0, i, y0, j)] {
                     let s = &mut self.stamp[f as usize];
                     if *s != self.epoch {
                         *s = self.epoch;
@@ -138,19 +144,29 @@ mod tests {
     use super::*;
 
     #[test]
-    fn query_finds_inserted_faces_once_and_clamps_outliers() {
+    fn query_finds_inserted_faces_once_and_wraps_outliers() {
         let mut g = FaceGrid::new([0.0, 0.0, 100.0, 100.0], 10.0, 4);
         g.insert(0, &[[1.0, 1.0], [25.0, 1.0], [1.0, 25.0]]);
         g.insert(1, &[[80.0, 80.0], [90.0, 80.0], [80.0, 90.0]]);
-        g.insert(2, &[[-500.0, -500.0], [-490.0, -500.0], [-500.0, -490.0]]);
+        // Outside the extent: x in [1005, 1009] wraps to the cell of [5, 9], y to [45, 49].
+        g.insert(2, &[[1005.0, 1045.0], [1009.0, 1045.0], [1005.0, 1049.0]]);
+        g.insert(3, &[[-500.0, -500.0], [-490.0, -500.0], [-500.0, -490.0]]);
         let mut out = Vec::new();
         g.query([0.0, 0.0, 30.0, 30.0], &mut out);
         out.sort_unstable();
-        assert_eq!(out, [0, 2]);
+        assert_eq!(out, [0, 3]);
         out.clear();
-        g.query([85.0, 85.0, 1e9, 1e9], &mut out);
+        g.query([1001.0, 1041.0, 1003.0, 1043.0], &mut out);
+        assert_eq!(out, [2]);
+        out.clear();
+        g.query([81.0, 81.0, 89.0, 89.0], &mut out);
         assert_eq!(out, [1]);
-        assert!(g.entries() >= 3);
+        out.clear();
+        // A box wider than the grid covers every cell once.
+        g.query([85.0, 85.0, 1e9, 1e9], &mut out);
+        out.sort_unstable();
+        assert_eq!(out, [0, 1, 2, 3]);
+        assert!(g.entries() >= 4);
         g.clear();
         out.clear();
         g.query([-1e9, -1e9, 1e9, 1e9], &mut out);

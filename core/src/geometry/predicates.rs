@@ -112,6 +112,21 @@ pub fn point_in_triangle_strict(p: [f64; 2], t: Tri2) -> bool {
 /// Exact separating-axis test: the interiors of two convex polygons are disjoint iff the
 /// supporting line of some edge has the other polygon entirely on its closed outer side.
 pub fn triangles_overlap(t1: Tri2, t2: Tri2) -> bool {
+    // Open interiors lie strictly inside the bounding boxes, so boxes that are disjoint or only
+    // touch settle it without a predicate (the common case for grid candidates).
+    for axis in 0..2 {
+        let (lo1, hi1) = (
+            t1[0][axis].min(t1[1][axis]).min(t1[2][axis]),
+            t1[0][axis].max(t1[1][axis]).max(t1[2][axis]),
+        );
+        let (lo2, hi2) = (
+            t2[0][axis].min(t2[1][axis]).min(t2[2][axis]),
+            t2[0][axis].max(t2[1][axis]).max(t2[2][axis]),
+        );
+        if hi1 <= lo2 || hi2 <= lo1 {
+            return false;
+        }
+    }
     let s1 = orient2d(t1[0], t1[1], t1[2]);
     let s2 = orient2d(t2[0], t2[1], t2[2]);
     if s1 == 0.0 || s2 == 0.0 {
