@@ -7,48 +7,8 @@ use scanatlas_core::plugin::{
     ALL_ROTATIONS, Footprint, PackItem, PackOutput, Packer, Params, Registry, check_packing,
 };
 
-use super::{HorizonPacker, SkylinePacker, SplitMix64};
-
-/// A random blob: a few overlapping rectangles inside `w × h`, so shapes are irregular (L, T,
-/// U shapes with concavities the horizons must respect).
-fn blob(rng: &mut SplitMix64, w: u32, h: u32) -> Footprint {
-    let mut f = Footprint::new(w, h).unwrap();
-    // One rectangle touches every side so the raster has no empty border.
-    f.set_span(0, 0, w);
-    for y in 0..h {
-        f.set_span(y, 0, 1);
-    }
-    f.set_span(h - 1, w - 1, w);
-    for y in 0..h {
-        f.set_span(y, w - 1, w);
-    }
-    for _ in 0..rng.below(4) {
-        let x0 = rng.below(w as usize) as u32;
-        let y0 = rng.below(h as usize) as u32;
-        let x1 = x0 + 1 + rng.below((w - x0) as usize) as u32;
-        let y1 = y0 + 1 + rng.below((h - y0) as usize) as u32;
-        for y in y0..y1 {
-            f.set_span(y, x0, x1);
-        }
-    }
-    f
-}
-
-fn random_items(seed: u64, n: usize, max_side: u32) -> Vec<PackItem> {
-    let mut rng = SplitMix64::new(seed);
-    (0..n)
-        .map(|_| {
-            let w = 1 + rng.below(max_side as usize) as u32;
-            let h = 1 + rng.below(max_side as usize) as u32;
-            let rotations = match rng.below(3) {
-                0 => 1,
-                1 => 0b0101,
-                _ => ALL_ROTATIONS,
-            };
-            PackItem { footprint: blob(&mut rng, w, h), rotations }
-        })
-        .collect()
-}
+use super::fixtures::{density, filled, mixed_charts, random_items};
+use super::{HorizonPacker, SkylinePacker};
 
 fn packers() -> Vec<(&'static str, Box<dyn Packer>)> {
     vec![
@@ -145,6 +105,37 @@ fn ten_thousand_items_pack_quickly() {
     // Generous bound: the machine is shared; a quadratic scan would take minutes.
     assert!(secs < 60.0, "{secs} s");
     assert!(!out.sheets.is_empty());
+}
+
+#[test]
+fn registered_by_name_with_parameters() {
+    let mut r = Registry::default();
+    crate::register_builtin(&mut r);
+    let mut p = Params::new();
+    p.insert("seed".into(), scanatlas_core::plugin::ParamValue::Int(3));
+    assert!(r.packer("horizon", &p).is_ok());
+    assert!(r.packer("skyline", &Params::new()).is_ok());
+    assert!(r.packer("skyline", &p).is_err(), "skyline has no seed");
+    assert!(r.packer("maxrects", &Params::new()).is_err());
+}
+
+/// A tenth of the scale of a real defragmented scan (the `pack` benchmark runs the full 10k):
+/// 1,000 charts of mixed sizes, as U-shaped blobs and as solid boxes, on 2048² sheets. Every
+/// packer gives a valid packing, and horizon is at least as dense as skyline on the blobs.
+#[test]
+fn a_thousand_mixed_charts_on_large_sheets() {
+    let blobs = mixed_charts(1_000);
+    let boxes = filled(&blobs);
+    for items in [&blobs, &boxes] {
+        for (name, p) in packers() {
+            let out = run(p.as_ref(), items, (2048, 2048));
+            let d = density(items, &out);
+            assert!(d > 0.2 && d <= 1.0, "{name}: density {d}");
+        }
+    }
+    let h = density(&blobs, &run(&HorizonPacker::default(), &blobs, (2048, 2048)));
+    let s = density(&blobs, &run(&SkylinePacker, &blobs, (2048, 2048)));
+    assert!(h >= s, "horizon {h} vs skyline {s}");
 }
 
 #[test]
