@@ -33,7 +33,8 @@ fn bench(c: &mut Criterion) {
     for (name, opts, n) in configs {
         let mut t = topo.clone();
         let start = Instant::now();
-        let (rep, _) = merge_charts_parallel(&mut t, scorer.as_ref(), solvers(&r, n), opts).unwrap();
+        let (rep, _) =
+            merge_charts_parallel(&mut t, scorer.as_ref(), solvers(&r, n), opts).unwrap();
         eprintln!(
             "{name} ({n} solver(s), {threads} threads): {:.2} s, charts {} -> {}, {} of {} \
              attempts accepted, {} rounds",

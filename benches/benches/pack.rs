@@ -6,7 +6,7 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
-use scanatlas_benches::{density, mixed_charts, registry};
+use scanatlas_benches::{density, filled, mixed_charts, registry};
 use scanatlas_core::plugin::{Params, check_packing};
 
 const CHARTS: usize = 10_000;
@@ -19,7 +19,7 @@ fn bench(c: &mut Criterion) {
     g.sampling_mode(SamplingMode::Flat);
     g.sample_size(10);
     g.warm_up_time(Duration::from_secs(1));
-    g.measurement_time(Duration::from_secs(20));
+    g.measurement_time(Duration::from_secs(45));
     g.throughput(Throughput::Elements(CHARTS as u64));
     for name in ["horizon", "skyline"] {
         let packer = r.packer(name, &Params::new()).unwrap();
@@ -29,10 +29,12 @@ fn bench(c: &mut Criterion) {
         let secs = t.elapsed().as_secs_f64();
         check_packing(&items, SHEET, &out).unwrap();
         eprintln!(
-            "{name}: {:.2} s, {} sheets, density {:.3} (footprint cells / trimmed sheet area)",
+            "{name}: {:.2} s, {} sheets; footprint cells / trimmed sheet area {:.3}, bounding \
+             boxes / trimmed sheet area {:.3}",
             secs,
             out.sheets.len(),
-            density(&items, &out)
+            density(&items, &out),
+            density(&filled(&items), &out)
         );
         g.bench_function(name, |b| b.iter(|| black_box(packer.pack(black_box(&items), SHEET))));
     }

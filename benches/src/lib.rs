@@ -11,7 +11,7 @@ use scanatlas_core::synth::{self, Shape, SynthParams};
 use scanatlas_core::texture::encode::{EncodeOptions, write_image};
 use scanatlas_core::topology::Topology;
 
-pub use scanatlas_plugins::packers::fixtures::{density, mixed_charts};
+pub use scanatlas_plugins::packers::fixtures::{density, filled, mixed_charts};
 
 /// The built-in plugins, registered by name.
 pub fn registry() -> Registry {
@@ -166,7 +166,9 @@ pub fn disk_problem(vertices: usize) -> LocalProblem {
             ]
         })
         .collect();
-    let targets =
-        tris.iter().map(|t| [rest[t[0] as usize], rest[t[1] as usize], rest[t[2] as usize]]).collect();
+    let targets = tris
+        .iter()
+        .map(|t| [rest[t[0] as usize], rest[t[1] as usize], rest[t[2] as usize]])
+        .collect();
     LocalProblem { uv, fixed, triangles: tris, targets }
 }
