@@ -1,6 +1,7 @@
 //! The built-in packers (`Packer` implementations): `horizon`, the paper's upper-and-inner-horizon
 //! packer on exact footprints, and `skyline`, a bottom-left skyline packer on bounding boxes.
 
+pub mod fixtures;
 pub mod horizon;
 pub mod rows;
 pub mod skyline;
