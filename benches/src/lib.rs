@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use scanatlas_core::io::{WriteOptions, write_model};
 use scanatlas_core::model::{ImageSource, Model};
 use scanatlas_core::plugin::{LocalProblem, LocalSolver, MergeScorer, Params, Registry};
-use scanatlas_core::synth::{self, Shape, SynthParams};
+use scanatlas_core::synth::{self, Shape, SynthParams, XorShift64};
 use scanatlas_core::texture::encode::{EncodeOptions, write_image};
 use scanatlas_core::topology::Topology;
 
@@ -76,18 +76,6 @@ pub fn model_bytes(path: &Path) -> u64 {
     size(path) + companion
 }
 
-/// xorshift64 in [-1, 1), so the fixtures need no extra dependency.
-struct Rng(u64);
-
-impl Rng {
-    fn uniform(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
-}
-
 /// An ARAP local problem on a disk of about `vertices` vertices: the unit grid points inside a
 /// circle, two counter-clockwise triangles per grid square inside it, the boundary ring fixed.
 /// The current UVs are the regular grid; the targets are the triangles of a slightly distorted
@@ -152,7 +140,7 @@ pub fn disk_problem(vertices: usize) -> LocalProblem {
         }
         k = m;
     }
-    let mut rng = Rng(0x9E37_79B9_7F4A_7C15 ^ vertices as u64);
+    let mut rng = XorShift64(0x9E37_79B9_7F4A_7C15 ^ vertices as u64);
     let rest: Vec<[f64; 2]> = uv
         .iter()
         .map(|p| {
@@ -161,8 +149,8 @@ pub fn disk_problem(vertices: usize) -> LocalProblem {
             let (sn, cs) = (0.05 * s).sin_cos();
             let stretch = 1.0 + 0.04 * (std::f64::consts::PI * s).sin();
             [
-                c + stretch * (cs * x - sn * y) + 0.1 * rng.uniform(),
-                c + stretch * (sn * x + cs * y) + 0.1 * rng.uniform(),
+                c + stretch * (cs * x - sn * y) + 0.1 * rng.signed(),
+                c + stretch * (sn * x + cs * y) + 0.1 * rng.signed(),
             ]
         })
         .collect();

@@ -7,19 +7,9 @@ use scanatlas_core::geometry::{mean_isometric_energy, orientation, signed_area2}
 use scanatlas_core::plugin::{
     LocalProblem, LocalSolver, Params, Registry, SolveError, SolveReport,
 };
+use scanatlas_core::synth::XorShift64;
 
 type Tri2 = [[f64; 2]; 3];
-
-/// xorshift64, so the fixtures need no extra dependency.
-struct Rng(u64);
-impl Rng {
-    fn uniform(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
-}
 
 fn tri(uv: &[[f64; 2]], t: [u32; 3]) -> Tri2 {
     [uv[t[0] as usize], uv[t[1] as usize], uv[t[2] as usize]]
@@ -27,11 +17,11 @@ fn tri(uv: &[[f64; 2]], t: [u32; 3]) -> Tri2 {
 
 /// A jittered `n × n` grid of unit spacing split into counter-clockwise triangles.
 fn grid(n: usize, jitter: f64, seed: u64) -> (Vec<[f64; 2]>, Vec<[u32; 3]>) {
-    let mut rng = Rng(seed);
+    let mut rng = XorShift64(seed);
     let mut pts = Vec::new();
     for j in 0..n {
         for i in 0..n {
-            pts.push([i as f64 + jitter * rng.uniform(), j as f64 + jitter * rng.uniform()]);
+            pts.push([i as f64 + jitter * rng.signed(), j as f64 + jitter * rng.signed()]);
         }
     }
     let id = |i: usize, j: usize| (j * n + i) as u32;
@@ -167,12 +157,12 @@ fn contract_suite(make: &dyn Fn() -> Box<dyn LocalSolver>) {
     assert!(r.energy_before > 1e-3 && r.energy_after < 0.7 * r.energy_before, "{r:?}");
 
     // Scrambled interior (no flips): jitter the free vertices a little.
-    let mut rng = Rng(9);
+    let mut rng = XorShift64(9);
     let mut uv = rest.clone();
     for (v, q) in uv.iter_mut().enumerate() {
         if !border_fixed(n)[v] {
-            q[0] += 0.2 * rng.uniform();
-            q[1] += 0.2 * rng.uniform();
+            q[0] += 0.2 * rng.signed();
+            q[1] += 0.2 * rng.signed();
         }
     }
     let p = problem(uv, &rest, tris.clone(), border_fixed(n));

@@ -160,17 +160,7 @@ pub fn closest_rotation(m: Mat2) -> Mat2 {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A small deterministic generator, so the tests need no extra dependency.
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> f64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        }
-    }
+    use crate::synth::XorShift64;
 
     fn close(a: f64, b: f64, tol: f64) -> bool {
         (a - b).abs() <= tol * (1.0 + a.abs().max(b.abs()))
@@ -192,7 +182,7 @@ mod tests {
 
     /// Random matrices, including near-singular ones and reflections, in several scales.
     fn samples() -> Vec<Mat2> {
-        let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+        let mut rng = XorShift64(0x9E37_79B9_7F4A_7C15);
         let mut out = vec![
             [[0.0, 0.0], [0.0, 0.0]],
             IDENTITY,
@@ -206,14 +196,14 @@ mod tests {
         for k in 0..3000i32 {
             let scale = 10f64.powi(k % 7 - 3);
             let mut m = [
-                [rng.next() * scale, rng.next() * scale],
-                [rng.next() * scale, rng.next() * scale],
+                [rng.signed() * scale, rng.signed() * scale],
+                [rng.signed() * scale, rng.signed() * scale],
             ];
             match k % 5 {
                 // Nearly singular: the second row almost parallel to the first.
                 0 => {
-                    let t = rng.next();
-                    let eps = 1e-9 * rng.next() * scale;
+                    let t = rng.signed();
+                    let eps = 1e-9 * rng.signed() * scale;
                     m[1] = [m[0][0] * t + eps, m[0][1] * t - eps];
                 }
                 // A reflection (negative determinant).

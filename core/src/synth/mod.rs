@@ -20,6 +20,7 @@ mod pack;
 mod paint;
 pub mod rig;
 mod rng;
+pub use rng::XorShift64;
 #[cfg(test)]
 mod tests;
 

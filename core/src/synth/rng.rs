@@ -62,6 +62,22 @@ impl SplitMix64 {
     }
 }
 
+/// A xorshift64 stream: the generator the tests and benches use for their fixtures (one shared
+/// definition, so their sequences stay fixed). The state must not be zero.
+#[derive(Clone, Debug)]
+pub struct XorShift64(pub u64);
+
+impl XorShift64 {
+    /// Uniform in `[-1, 1)`.
+    #[inline]
+    pub fn signed(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    }
+}
+
 /// The quintic smoothstep of Perlin's improved noise: C2, so displaced surfaces have continuous
 /// curvature and no visible lattice creases.
 #[inline]
