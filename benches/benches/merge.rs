@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use criterion::{BatchSize, Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use scanatlas_benches::{registry, scan_params, scan_topology, scorer, solvers};
-use scanatlas_core::defrag::{DEFAULT_CLUSTER_FACES, MergeOptions, merge_charts_parallel};
+use scanatlas_core::defrag::{MergeOptions, merge_charts_parallel};
 
 const FACES: u32 = 200_000;
 
@@ -26,7 +26,9 @@ fn bench(c: &mut Criterion) {
     let scorer = scorer(&r);
     let threads = rayon::current_num_threads();
     let serial = MergeOptions { cluster_faces: 0, ..MergeOptions::default() };
-    let parallel = MergeOptions { cluster_faces: DEFAULT_CLUSTER_FACES, ..MergeOptions::default() };
+    // The default cluster size (`DEFAULT_CLUSTER_FACES`) would leave a 200k-face scan in one
+    // cluster, so the bench uses clusters of 65,536 faces (four of them).
+    let parallel = MergeOptions { cluster_faces: 65_536, ..MergeOptions::default() };
     let configs = [("serial", &serial, 1), ("parallel", &parallel, threads)];
 
     // One run of each first, so the merge report can be read beside criterion's figures.

@@ -236,7 +236,7 @@ pub struct DefragArgs {
     #[arg(long)]
     pub serial: bool,
     /// Faces at which a cluster of charts stops growing (clusters come from the data, never
-    /// from --threads, so the output is the same for every thread count) [default: 65536].
+    /// from --threads, so the output is the same for every thread count) [default: 300000].
     #[arg(long, value_name = "N")]
     pub cluster_faces: Option<u32>,
     /// Write the merged UVs on the input sheets only: no packing, no new textures.
