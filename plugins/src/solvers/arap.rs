@@ -20,16 +20,12 @@
 //! would try to unfold it and stall); a "flip" is a triangle leaving that expected orientation.
 
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
-use faer::sparse::linalg::SupernodalThreshold;
-use faer::sparse::linalg::cholesky::{
-    CholeskySymbolicParams, LdltRef, LltRef, SymbolicCholesky, SymmetricOrdering,
-    factorize_symbolic_cholesky,
-};
+use faer::sparse::linalg::cholesky::{LdltRef, LltRef, SymbolicCholesky};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 use scanatlas_core::geometry::{
     EnergySum, Mat2, Tri2, closest_rotation_and_energy, energy_weight, isometric_energy,
-    orientation, signed_area2,
+    mean_isometric_energy, orientation, signed_area2,
 };
 use scanatlas_core::plugin::{
     LocalProblem, LocalSolver, ParamInfo, ParamValue, Params, PluginError, PluginInfo, PluginKind,
@@ -130,11 +126,7 @@ struct Evaluation {
 
 /// The exact area-weighted mean isometric energy of the problem's current layout.
 fn mean_energy(problem: &LocalProblem) -> f64 {
-    let mut sum = EnergySum::default();
-    for (&t, &target) in problem.triangles.iter().zip(&problem.targets) {
-        sum.add(target, corners(&problem.uv, t));
-    }
-    sum.mean()
+    mean_isometric_energy(&problem.triangles, &problem.uv, &problem.targets)
 }
 
 /// Per-triangle data computed once per problem.
@@ -753,28 +745,13 @@ impl LocalSolver for ArapSolver {
         self.build_pattern();
         self.assemble(&problem.uv);
         let nf = self.free.len();
-        let pattern =
-            SymbolicSparseColMatRef::new_checked(nf, nf, &self.col_ptr, None, &self.row_idx);
         // The factor is used for up to 100 solves, and faer's simplicial solve is about 4× faster
         // than its supernodal one at 100k unknowns (6 vs 25 ms for two right-hand sides) while its
         // factorization is only ~2× slower; measured here, the whole solve is faster simplicial at
         // 100k free vertices. Beyond `SIMPLICIAL_LIMIT` the better scaling of the supernodal
         // factorization is expected to win, so faer chooses.
-        let threshold = if nf <= SIMPLICIAL_LIMIT {
-            SupernodalThreshold::FORCE_SIMPLICIAL
-        } else {
-            SupernodalThreshold::AUTO
-        };
-        let symbolic = factorize_symbolic_cholesky(
-            pattern,
-            Side::Upper,
-            SymmetricOrdering::Amd,
-            CholeskySymbolicParams {
-                supernodal_flop_ratio_threshold: threshold,
-                ..Default::default()
-            },
-        )
-        .map_err(|e| SolveError::Factorization(format!("symbolic analysis: {e:?}")))?;
+        let symbolic =
+            super::symbolic_cholesky(nf, &self.col_ptr, &self.row_idx, SIMPLICIAL_LIMIT)?;
         let factor = self.factorize(&symbolic)?;
 
         // The iterates run on in `self.current`; `problem.uv` holds the best admissible one. An

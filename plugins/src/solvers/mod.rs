@@ -5,7 +5,37 @@ pub mod slim;
 
 pub use arap::{ArapParams, ArapSolver};
 
-use scanatlas_core::plugin::{Params, PluginError, PluginInfo, get_f64};
+use faer::Side;
+use faer::sparse::SymbolicSparseColMatRef;
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::linalg::cholesky::{
+    CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
+};
+use scanatlas_core::plugin::{Params, PluginError, PluginInfo, SolveError, get_f64};
+
+/// The symbolic Cholesky analysis (AMD ordering) of the `n × n` upper-triangular pattern
+/// `col_ptr`/`row_idx`, forced simplicial up to `simplicial_limit` unknowns (each solver says why
+/// its limit) and left to faer's choice beyond.
+fn symbolic_cholesky(
+    n: usize,
+    col_ptr: &[usize],
+    row_idx: &[usize],
+    simplicial_limit: usize,
+) -> Result<SymbolicCholesky<usize>, SolveError> {
+    let pattern = SymbolicSparseColMatRef::new_checked(n, n, col_ptr, None, row_idx);
+    let threshold = if n <= simplicial_limit {
+        SupernodalThreshold::FORCE_SIMPLICIAL
+    } else {
+        SupernodalThreshold::AUTO
+    };
+    factorize_symbolic_cholesky(
+        pattern,
+        Side::Upper,
+        SymmetricOrdering::Amd,
+        CholeskySymbolicParams { supernodal_flop_ratio_threshold: threshold, ..Default::default() },
+    )
+    .map_err(|e| SolveError::Factorization(format!("symbolic analysis: {e:?}")))
+}
 
 /// The error of a bad parameter `param` of solver `info`.
 fn bad_param(info: &PluginInfo, param: &str, msg: &str) -> PluginError {

@@ -20,14 +20,12 @@
 //! engine's d and g checks mean the same with either solver.
 
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
-use faer::sparse::linalg::SupernodalThreshold;
-use faer::sparse::linalg::cholesky::{
-    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering,
-    factorize_symbolic_cholesky,
-};
+use faer::sparse::linalg::cholesky::{LltRef, SymbolicCholesky};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
-use scanatlas_core::geometry::{EnergySum, Mat2, orientation, signed_area2, svd2_signed};
+use scanatlas_core::geometry::{
+    Mat2, mean_isometric_energy, orientation, signed_area2, svd2_signed,
+};
 use scanatlas_core::plugin::{
     LocalProblem, LocalSolver, ParamInfo, ParamValue, Params, PluginError, PluginInfo, PluginKind,
     Registry, SolveError, SolveReport,
@@ -232,11 +230,7 @@ impl SlimSolver {
 
 /// The mean isometric energy of `uv` (the engine's convention).
 fn isometric(problem: &LocalProblem, uv: &[[f64; 2]]) -> f64 {
-    let mut sum = EnergySum::default();
-    for (&t, &target) in problem.triangles.iter().zip(&problem.targets) {
-        sum.add(target, corners(uv, t));
-    }
-    sum.mean()
+    mean_isometric_energy(&problem.triangles, uv, &problem.targets)
 }
 
 #[inline]
@@ -617,23 +611,8 @@ impl SlimSolver {
     ) -> Result<(f64, u32), SolveError> {
         self.build_pattern();
         let n2 = 2 * self.free.len();
-        let pattern =
-            SymbolicSparseColMatRef::new_checked(n2, n2, &self.col_ptr, None, &self.row_idx);
-        let threshold = if n2 <= SIMPLICIAL_LIMIT {
-            SupernodalThreshold::FORCE_SIMPLICIAL
-        } else {
-            SupernodalThreshold::AUTO
-        };
-        let symbolic = factorize_symbolic_cholesky(
-            pattern,
-            Side::Upper,
-            SymmetricOrdering::Amd,
-            CholeskySymbolicParams {
-                supernodal_flop_ratio_threshold: threshold,
-                ..Default::default()
-            },
-        )
-        .map_err(|e| SolveError::Factorization(format!("symbolic analysis: {e:?}")))?;
+        let symbolic =
+            super::symbolic_cholesky(n2, &self.col_ptr, &self.row_idx, SIMPLICIAL_LIMIT)?;
         self.current.clear();
         self.current.extend_from_slice(&problem.uv);
         self.trial.clear();
