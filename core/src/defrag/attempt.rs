@@ -304,7 +304,15 @@ impl Engine<'_> {
         for &f in &self.opt_faces {
             let before = self.face_area2[f as usize];
             let after = signed_area2(self.tri(f as usize));
-            if before >= DEGENERATE_AREA2 && (after.is_nan() || after < DEGENERATE_AREA2) {
+            // A face of the chart's orientation must keep it; a degenerate one may open up, but
+            // only the right way round (a zero-target face has no energy to keep it from
+            // flipping). Faces folded in the input are tolerated whatever they become.
+            let folded = if before >= DEGENERATE_AREA2 {
+                after.is_nan() || after < DEGENERATE_AREA2
+            } else {
+                before > -DEGENERATE_AREA2 && (after.is_nan() || after <= -DEGENERATE_AREA2)
+            };
+            if folded {
                 return Verdict::Reject(RejectReason::Fold);
             }
         }

@@ -11,7 +11,8 @@
 //!   the scorer features;
 //! - `patch`: the optimization area, the local problem and its topology check;
 //! - `attempt`: one merge attempt with its checks, commit and rollback;
-//! - `greedy`: the priority queue and the rescoring after each accepted merge.
+//! - `greedy`: the priority queue and the rescoring after each accepted merge;
+//! - `zero_area`: charts of zero-area faces joined to a neighbouring chart at the end.
 
 mod attempt;
 mod clusters;
@@ -22,6 +23,7 @@ mod output;
 mod patch;
 mod state;
 mod undo;
+mod zero_area;
 
 #[cfg(test)]
 mod tests;
@@ -30,6 +32,7 @@ pub use clusters::merge_charts_parallel;
 pub use greedy::merge_charts;
 pub use output::merged_model;
 pub use state::MergedLayout;
+pub use zero_area::ZeroAreaReport;
 
 use crate::plugin::Veto;
 
@@ -273,6 +276,8 @@ pub struct MergeReport {
     pub optimized_faces: u64,
     /// The largest optimization area attempted, in faces.
     pub max_patch_faces: u64,
+    /// Charts of zero-area faces joined to neighbouring charts after merging.
+    pub zero_area: ZeroAreaReport,
     pub stop: StopReason,
     /// The parallel rounds (empty for the serial baseline), the last one serial on one cluster.
     pub rounds: Vec<ClusterRound>,

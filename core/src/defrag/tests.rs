@@ -237,3 +237,78 @@ fn no_retry_and_time_limit_and_border_target_stop_the_loop() {
     let mut t = prepare(&m);
     assert!(merge_charts(&mut t, &ByError, &mut Keep, &bad).is_err());
 }
+
+/// A 2 × 1 grid of two quads in one chart (texel = 20 + 4·position) and a sliver of zero 3D area
+/// on its bottom edge from (0, 0) to (1, 0), in a chart of its own elsewhere on the sheet. With
+/// `consistent` the sliver runs the shared edge against the grid's direction (as a consistently
+/// oriented mesh does), so its far side is outside the grid.
+fn grid_and_sliver(consistent: bool) -> Model {
+    let p = vec![
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [2.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [2.0, 1.0, 0.0],
+        [0.5, 0.0, 0.0],
+    ];
+    let mut m = model_with(p);
+    let tex = |v: u32, m: &Model| {
+        let q = m.positions[v as usize];
+        [20.0 + 4.0 * q[0], 20.0 + 4.0 * q[1]]
+    };
+    for f in [[0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4]] {
+        let t = f.map(|v| tex(v, &m));
+        add_face(&mut m, f, t);
+    }
+    // The sliver's own UVs: a small triangle far from the grid, of positive orientation.
+    if consistent {
+        add_face(&mut m, [1, 0, 6], [[200.0, 200.0], [204.0, 200.0], [202.0, 202.0]]);
+    } else {
+        add_face(&mut m, [0, 1, 6], [[200.0, 200.0], [204.0, 200.0], [202.0, 202.0]]);
+    }
+    m
+}
+
+#[test]
+fn a_chart_of_zero_area_faces_joins_its_neighbour_outside_it() {
+    let m = grid_and_sliver(true);
+    let t0 = prepare(&m);
+    assert_eq!(t0.report.charts, 2);
+    assert!(t0.face_flags[4].has(crate::topology::FrozenReasons::ZERO_AREA_3D));
+    let (t, r) = run(&m, &MergeOptions::default());
+    assert_eq!(r.zero_area, ZeroAreaReport { charts: 1, charts_joined: 1, faces_joined: 1 });
+    assert_eq!(r.charts_after, 1, "{r:?}");
+    assert_eq!(t.face_chart[4], t.face_chart[0]);
+    // The independent check: the written-back model is one edge-connected UV component, and
+    // the sliver sits outside the grid with its own shape and orientation.
+    let back = merged_model(&m, &t);
+    assert_eq!(prepare(&back).report.uv_components, 1);
+    let tri = |f: usize| {
+        let uv = back.faces[f].uv.expect("uvs");
+        uv.map(|u| back.uvs[u.idx()].map(|x| x * f64::from(SHEET)))
+    };
+    let sliver = tri(4);
+    assert!(crate::geometry::signed_area2(sliver) > 1.0, "{sliver:?}");
+    assert!(sliver[2][1] < 20.0, "the third corner lies below the grid: {sliver:?}");
+    for f in 0..4 {
+        assert!(!crate::geometry::triangles_overlap(sliver, tri(f)), "overlaps face {f}");
+    }
+    assert_eq!(back.faces.len(), m.faces.len());
+    for (a, b) in back.faces.iter().zip(&m.faces) {
+        assert_eq!(a.v, b.v);
+    }
+}
+
+#[test]
+fn a_zero_area_face_that_would_overlap_stays_in_its_chart() {
+    let m = grid_and_sliver(false);
+    let (t, r) = run(&m, &MergeOptions::default());
+    assert_eq!(r.zero_area, ZeroAreaReport { charts: 1, charts_joined: 0, faces_joined: 0 });
+    assert_eq!(r.charts_after, 2);
+    assert_ne!(t.face_chart[4], t.face_chart[0]);
+    let back = merged_model(&m, &t);
+    let uv = back.faces[4].uv.expect("uvs").map(|u| back.uvs[u.idx()]);
+    let orig = m.faces[4].uv.expect("uvs").map(|u| m.uvs[u.idx()]);
+    assert_eq!(uv, orig, "its UVs are untouched");
+}

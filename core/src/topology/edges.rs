@@ -147,15 +147,18 @@ pub(crate) fn build_adjacency(corner_pos: &[PosId], n_pos: usize) -> Adjacency {
     }
 }
 
-/// Adds the 3D reasons to freeze a face: two corners welded together, zero 3D area (exactly:
-/// the reference deletes faces whose double area is `<= 0`), or a side on a non-manifold edge.
+/// Adds the 3D reasons to freeze a face: two corners welded together, or zero 3D area (exactly:
+/// the reference deletes faces whose double area is `<= 0`). Returns how many faces have a side
+/// on a non-manifold edge: those are not frozen (an edge with more than two sides is never
+/// linked, so it stays a border, and the face merges through its other edges), only counted.
 pub(crate) fn flag_3d(
     positions: &[[f64; 3]],
     face_vertices: impl Iterator<Item = [usize; 3]>,
     corner_pos: &[PosId],
     adjacency: &Adjacency,
     face_flags: &mut [FrozenReasons],
-) {
+) -> u64 {
+    let mut non_manifold = 0;
     for (f, v) in face_vertices.enumerate() {
         let p = [corner_pos[3 * f], corner_pos[3 * f + 1], corner_pos[3 * f + 2]];
         let mut flags = face_flags[f].0;
@@ -167,11 +170,10 @@ pub(crate) fn flag_3d(
         if area.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             flags |= FrozenReasons::ZERO_AREA_3D;
         }
-        for k in 0..3 {
-            if adjacency.edges[adjacency.he_edge[3 * f + k].idx()].is_non_manifold() {
-                flags |= FrozenReasons::NON_MANIFOLD;
-            }
-        }
+        non_manifold += u64::from(
+            (0..3).any(|k| adjacency.edges[adjacency.he_edge[3 * f + k].idx()].is_non_manifold()),
+        );
         face_flags[f] = FrozenReasons(flags);
     }
+    non_manifold
 }

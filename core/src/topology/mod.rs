@@ -59,7 +59,6 @@ pub struct FrozenCounts {
     pub degenerate: u64,
     pub zero_area_3d: u64,
     pub zero_area_uv: u64,
-    pub non_manifold: u64,
 }
 
 /// Time spent in one preparation stage.
@@ -89,6 +88,9 @@ pub struct PreparationReport {
     pub mesh_edges: u64,
     pub boundary_edges: u64,
     pub non_manifold_edges: u64,
+    /// Faces with a side on a non-manifold edge. They merge through their other edges; the
+    /// non-manifold edge itself is never dissolved.
+    pub non_manifold_faces: u64,
     pub degenerate_edges: u64,
     /// Two-sided edges whose faces are inconsistently oriented.
     pub inconsistent_edge_pairs: u64,
@@ -214,7 +216,7 @@ impl Topology {
         let adj = edges::build_adjacency(&corner_pos, n_positions);
         lap("mesh edges", &mut t);
 
-        edges::flag_3d(
+        let non_manifold_faces = edges::flag_3d(
             &model.positions,
             face_vertices.iter().copied(),
             &corner_pos,
@@ -291,7 +293,6 @@ impl Topology {
             frozen.degenerate += count(FrozenReasons::DEGENERATE);
             frozen.zero_area_3d += count(FrozenReasons::ZERO_AREA_3D);
             frozen.zero_area_uv += count(FrozenReasons::ZERO_AREA_UV);
-            frozen.non_manifold += count(FrozenReasons::NON_MANIFOLD);
         }
         let mut referenced = vec![false; n_positions];
         for p in &corner_pos {
@@ -309,6 +310,7 @@ impl Topology {
             mesh_edges: adj.edges.len() as u64,
             boundary_edges: adj.boundary_edges,
             non_manifold_edges: adj.non_manifold_edges,
+            non_manifold_faces,
             degenerate_edges: adj.degenerate_edges,
             inconsistent_edge_pairs: adj.inconsistent_pairs,
             seams: links.links.len() as u64,

@@ -258,14 +258,22 @@ fn non_manifold_edge_is_never_dissolved() {
     let t = build(&m);
     let r = &t.report;
     assert_eq!(r.non_manifold_edges, 1);
-    assert_eq!(r.frozen_faces.non_manifold, 3);
-    assert!((0..3).all(|f| t.face_flags[f].has(FrozenReasons::NON_MANIFOLD)));
-    assert!(!t.face_flags[3].is_frozen());
-    assert_eq!((r.seams, r.frozen_seams, r.inter_ops), (0, 1, 0), "no link touches a frozen face");
-    assert!(t.he_link.iter().all(|l| l.is_none()));
+    assert_eq!(r.non_manifold_faces, 3);
+    // Faces on a non-manifold edge are not frozen: they merge through their manifold edges.
+    assert!((0..4).all(|f| !t.face_flags[f].is_frozen()));
+    assert_eq!(
+        (r.seams, r.frozen_seams, r.inter_ops),
+        (1, 0, 1),
+        "the manifold seam 1-2 is linked"
+    );
     let nm = t.edges.iter().position(|e| e.is_non_manifold()).expect("one non-manifold edge");
-    assert_eq!(t.sides_of_edge(EdgeId::from_usize(nm)).len(), 3);
-    // Faces on a non-manifold edge are not isolated: they form ordinary charts, just never merged.
+    let sides = t.sides_of_edge(EdgeId::from_usize(nm));
+    assert_eq!(sides.len(), 3);
+    assert!(
+        sides.iter().all(|h| t.he_link[h.idx()].is_none()),
+        "the non-manifold edge stays a border"
+    );
+    assert!(!t.he_link[1].is_none(), "face 0's edge 1-2 is the linked seam");
     assert!(!t.charts[t.face_chart[0].idx()].frozen && !t.charts[t.face_chart[3].idx()].frozen);
 }
 

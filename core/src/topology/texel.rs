@@ -25,8 +25,6 @@ impl FrozenReasons {
     pub const ZERO_AREA_3D: u8 = 1 << 4;
     /// Its texel-space area is below [`ZERO_UV_AREA`].
     pub const ZERO_AREA_UV: u8 = 1 << 5;
-    /// One of its edges has more than two incident faces.
-    pub const NON_MANIFOLD: u8 = 1 << 6;
 
     /// Whether any reason is set.
     #[inline]
@@ -35,8 +33,8 @@ impl FrozenReasons {
     }
 
     /// Whether the face cannot even ride along with a chart: it has no usable UVs or no sheet.
-    /// Such faces form charts of their own. Other frozen faces (degenerate, zero 3D or UV area,
-    /// on a non-manifold edge) stay in the chart they are UV-connected to and move with it, but
+    /// Such faces form charts of their own. Other frozen faces (degenerate, zero 3D or UV area)
+    /// stay in the chart they are UV-connected to and move with it, but
     /// no seam of theirs is ever dissolved, so they are never merged themselves and never
     /// dropped.
     #[inline]

@@ -1,0 +1,252 @@
+//! Charts of zero-area faces joined to a neighbouring chart after merging.
+//!
+//! Photogrammetry meshes hold slivers and caps whose corners are collinear or coincide, in 3D or
+//! in UV: venus has 2,634 faces of zero 3D area and 630 of zero UV area, many of them alone in a
+//! chart of their own. A zero-3D-area face never shows on the surface, and a zero-UV-area face
+//! owns no texel (it shows the colour of a line of texels), yet each of their charts costs a
+//! padded island in the atlas, gutters and seams. The reference deletes the first kind; scanatlas
+//! keeps every face, so it re-attaches both instead: a face of such a chart takes, for one of its
+//! edges, the two UV vertices of a neighbour across that mesh edge in a chart with some face of
+//! positive area, and its third corner goes on the far side of the edge with the face's original
+//! UV shape (scaled to the neighbour's edge length, mirrored if needed so that its orientation is
+//! the chart's; a zero-UV-area face stays degenerate, on the edge).
+//!
+//! The placement is checked like a merge: the face must not fold and must not overlap any face of
+//! the chart it joins. Faces whose every edge fails stay where they are, and so do faces with no
+//! neighbour across an edge (a cap folded onto itself). The merge operations never touch these
+//! faces (they are frozen), so this pass changes nothing but their own UVs.
+
+use super::state::{Engine, orig_tri};
+use crate::geometry::{
+    Tri2, isometric_energy, signed_area2, triangles_overlap_beyond_noise as overlap,
+};
+use crate::topology::{ChartId, FrozenReasons, HalfEdgeId, UvVertId};
+
+use super::grid::tri_bbox;
+
+/// Doubled texel area below which a placed face counts as degenerate (the evaluator's 1e-6 texel²).
+const DEGENERATE_AREA2: f64 = 2e-6;
+/// Passes over the zero-area faces: a face whose only neighbours have zero area can join through
+/// a face attached in an earlier pass.
+const PASSES: usize = 4;
+
+/// What the pass did, for the run report.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct ZeroAreaReport {
+    /// Live charts made only of zero-area faces, before the pass.
+    pub charts: u64,
+    /// Of those, charts whose every face joined another chart.
+    pub charts_joined: u64,
+    pub faces_joined: u64,
+}
+
+impl Engine<'_> {
+    /// Joins the faces of zero-area charts to neighbouring charts (see the module notes).
+    pub(crate) fn join_zero_area_charts(&mut self) -> ZeroAreaReport {
+        let n_charts = self.t.charts.len();
+        let zero_area = |e: &Self, f: u32| {
+            let flags = e.t.face_flags[f as usize];
+            flags.has(FrozenReasons::ZERO_AREA_3D) || flags.has(FrozenReasons::ZERO_AREA_UV)
+        };
+        let mut host_chart = vec![false; n_charts];
+        let mut pending: Vec<u32> = Vec::new();
+        let mut report = ZeroAreaReport::default();
+        let mut source: Vec<ChartId> = Vec::new();
+        for (c, host) in host_chart.iter_mut().enumerate() {
+            let faces = &self.chart_faces[c];
+            if faces.is_empty() || self.t.charts[c].frozen {
+                continue;
+            }
+            if faces.iter().all(|&f| zero_area(self, f)) {
+                report.charts += 1;
+                source.push(ChartId(c as u32));
+                pending.extend_from_slice(faces);
+            } else {
+                *host = true;
+            }
+        }
+        pending.sort_unstable();
+        let mut left = Vec::with_capacity(pending.len());
+        for _ in 0..PASSES {
+            let before = pending.len();
+            left.clear();
+            for &f in &pending {
+                if self.join_face(f, &host_chart) {
+                    report.faces_joined += 1;
+                } else {
+                    left.push(f);
+                }
+            }
+            std::mem::swap(&mut pending, &mut left);
+            if pending.len() == before {
+                break;
+            }
+        }
+        report.charts_joined =
+            source.iter().filter(|c| self.chart_faces[c.idx()].is_empty()).count() as u64;
+        report
+    }
+
+    /// Tries the edges of zero-area face `f` in corner order against the faces across each of
+    /// them; joins the first chart where the placed face neither folds nor overlaps.
+    fn join_face(&mut self, f: u32, host_chart: &[bool]) -> bool {
+        let fu = f as usize;
+        for k in 0..3 {
+            let h = HalfEdgeId::from_usize(3 * fu + k);
+            let (cp, cq) = (3 * fu + k, 3 * fu + (k + 1) % 3);
+            let (p, q) = (self.t.corner_pos[cp], self.t.corner_pos[cq]);
+            if p == q {
+                continue;
+            }
+            let e = self.t.he_edge[h.idx()];
+            for si in 0..self.t.sides_of_edge(e).len() {
+                let s = self.t.sides_of_edge(e)[si];
+                let g = s.face();
+                if g == fu
+                    || self.t.face_sheet[g] != self.t.face_sheet[fu]
+                    || self.t.face_flags[g].is_isolated()
+                    || !host_chart[self.t.face_chart[g].idx()]
+                {
+                    continue;
+                }
+                // The UV vertices of g at positions p and q.
+                let (g0, g1) = (3 * g + s.idx() % 3, 3 * g + (s.idx() % 3 + 1) % 3);
+                let (up, uq) = if self.t.corner_pos[g0] == p && self.t.corner_pos[g1] == q {
+                    (self.t.corner_uv[g0], self.t.corner_uv[g1])
+                } else if self.t.corner_pos[g0] == q && self.t.corner_pos[g1] == p {
+                    (self.t.corner_uv[g1], self.t.corner_uv[g0])
+                } else {
+                    continue;
+                };
+                let chart = self.t.face_chart[g];
+                if let Some(x) = self.place_third(fu, k, up, uq, chart) {
+                    self.attach(f, k, up, uq, x, s, chart);
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
+    /// Where the third corner of face `f` goes when its edge `k → k+1` lies on `up → uq`: the
+    /// original shape, scaled and mirrored to positive orientation. `None` when the edge is
+    /// degenerate, the face would fold, or it would overlap a face of the chart it joins.
+    fn place_third(
+        &mut self,
+        f: usize,
+        k: usize,
+        up: UvVertId,
+        uq: UvVertId,
+        chart: ChartId,
+    ) -> Option<[f64; 2]> {
+        let o = orig_tri(self.t, f);
+        let (op, oq, or) = (o[k], o[(k + 1) % 3], o[(k + 2) % 3]);
+        let d = [oq[0] - op[0], oq[1] - op[1]];
+        let l2 = d[0] * d[0] + d[1] * d[1];
+        let (a, b) = (self.t.uv_pos[up.idx()], self.t.uv_pos[uq.idx()]);
+        let dc = [b[0] - a[0], b[1] - a[1]];
+        if l2.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || dc == [0.0, 0.0] {
+            return None;
+        }
+        let r = [or[0] - op[0], or[1] - op[1]];
+        let along = (r[0] * d[0] + r[1] * d[1]) / l2;
+        let across = ((d[0] * r[1] - d[1] * r[0]) / l2).abs();
+        let x = [a[0] + along * dc[0] - across * dc[1], a[1] + along * dc[1] + across * dc[0]];
+        let mut tri: Tri2 = [[0.0; 2]; 3];
+        tri[k] = a;
+        tri[(k + 1) % 3] = b;
+        tri[(k + 2) % 3] = x;
+        let area2 = signed_area2(tri);
+        if !x.iter().all(|c| c.is_finite())
+            || (signed_area2(o).abs() >= DEGENERATE_AREA2 && area2 < DEGENERATE_AREA2)
+        {
+            return None;
+        }
+        self.candidates.clear();
+        self.grid.query(tri_bbox(&tri), &mut self.candidates);
+        for j in 0..self.candidates.len() {
+            let s = self.candidates[j] as usize;
+            if s != f && self.t.face_chart[s] == chart && overlap(tri, self.tri(s)) {
+                return None;
+            }
+        }
+        Some(x)
+    }
+
+    /// Moves face `f` into `chart`: corners `k`, `k+1` on `up`, `uq`, the third on a new UV
+    /// vertex at `x`; its edge `k` becomes the UV twin of `side`. Keeps the border length, the
+    /// energy sums, the chart lists and the grid up to date.
+    #[allow(clippy::too_many_arguments)]
+    fn attach(
+        &mut self,
+        f: u32,
+        k: usize,
+        up: UvVertId,
+        uq: UvVertId,
+        x: [f64; 2],
+        side: HalfEdgeId,
+        chart: ChartId,
+    ) {
+        let fu = f as usize;
+        let hs: [usize; 3] = [3 * fu, 3 * fu + 1, 3 * fu + 2];
+        // The UV twins of f's edges inside its old chart become borders of that chart.
+        let old_twins: [HalfEdgeId; 3] = hs.map(|h| self.t.he_uv_twin[h]);
+        let border = |e: &Self, h: usize| -> f64 {
+            if e.t.he_uv_twin[h].is_none() { e.half_edge_len(h) } else { 0.0 }
+        };
+        let mut before = border(self, side.idx());
+        for &h in &hs {
+            before += border(self, h);
+        }
+        for t in old_twins.iter().filter(|t| !t.is_none()) {
+            before += border(self, t.idx());
+        }
+
+        for &h in &hs {
+            let t = self.t.he_uv_twin[h];
+            if !t.is_none() {
+                self.t.he_uv_twin[t.idx()] = HalfEdgeId::NONE;
+                self.t.he_uv_twin[h] = HalfEdgeId::NONE;
+            }
+        }
+        let third = UvVertId::from_usize(self.t.uv_pos.len());
+        self.t.uv_pos.push(x);
+        self.t.uv_vpos.push(self.t.corner_pos[3 * fu + (k + 2) % 3]);
+        self.t.uv_chart.push(chart);
+        self.t.corner_uv[3 * fu + k] = up;
+        self.t.corner_uv[3 * fu + (k + 1) % 3] = uq;
+        self.t.corner_uv[3 * fu + (k + 2) % 3] = third;
+        self.t.he_uv_twin[3 * fu + k] = side;
+        self.t.he_uv_twin[side.idx()] = HalfEdgeId::from_usize(3 * fu + k);
+
+        let mut after = border(self, side.idx());
+        for &h in &hs {
+            after += border(self, h);
+        }
+        for t in old_twins.iter().filter(|t| !t.is_none()) {
+            after += border(self, t.idx());
+        }
+        self.border_len += after - before;
+
+        let old = self.t.face_chart[fu];
+        self.chart_faces[old.idx()].retain(|&g| g != f);
+        self.t.face_chart[fu] = chart;
+        self.chart_faces[chart.idx()].push(f);
+        let tri = self.tri(fu);
+        let energy = self.face_weight[fu] * isometric_energy(orig_tri(self.t, fu), tri);
+        self.energy_num += energy - self.face_energy[fu];
+        self.face_energy[fu] = energy;
+        self.face_area2[fu] = signed_area2(tri);
+        self.grid.insert(f, &tri);
+    }
+
+    /// The UV length of half-edge `h` in the current layout.
+    fn half_edge_len(&self, h: usize) -> f64 {
+        let f = h / 3;
+        let (a, b) = (
+            self.t.uv_pos[self.t.corner_uv[h].idx()],
+            self.t.uv_pos[self.t.corner_uv[3 * f + (h % 3 + 1) % 3].idx()],
+        );
+        (b[0] - a[0]).hypot(b[1] - a[1])
+    }
+}
