@@ -20,14 +20,17 @@ const GLOBAL_BUDGET: f64 = 0.025;
 
 /// Prepares and merges `model` with the built-in `paper` scorer and `arap` solver.
 fn merge(model: &Model) -> (MergeReport, Model) {
+    merge_with(model, &MergeOptions::default())
+}
+
+fn merge_with(model: &Model, opts: &MergeOptions) -> (MergeReport, Model) {
     let mut reg = Registry::default();
     scanatlas_plugins::register_builtin(&mut reg);
     let scorer = reg.scorer("paper", &Params::new()).expect("paper scorer");
     let mut solver = reg.solver("arap", &Params::new()).expect("arap solver");
     let mut t = Topology::build(model, &sheet_sizes(model)).expect("valid model");
     let (report, _) =
-        merge_charts(&mut t, scorer.as_ref(), solver.as_mut(), &MergeOptions::default())
-            .expect("default options are valid");
+        merge_charts(&mut t, scorer.as_ref(), solver.as_mut(), opts).expect("valid options");
     (report, merged_model(model, &t))
 }
 
@@ -81,6 +84,22 @@ fn whole_merge(shape: Shape, faces: u32) {
         "{shape}: {} → {} charts",
         c.input.charts,
         c.output.charts
+    );
+}
+
+#[test]
+fn growing_the_patch_after_an_overlap_keeps_the_merge_safe() {
+    let model = synthetic(Shape::Blob, 10_000, 3);
+    let (grown, out) = merge(&model);
+    assert!(grown.area_grows > 0, "the fixture has overlap rejections to retry: {grown:?}");
+    assert_safe("with growth", &check(&model, &out));
+    let (plain, out) =
+        merge_with(&model, &MergeOptions { max_area_grows: 0, ..Default::default() });
+    assert_eq!(plain.area_grows, 0);
+    assert_safe("without growth", &check(&model, &out));
+    println!(
+        "blob: {} charts with one growth per overlap rejection ({} grows), {} without",
+        grown.charts_after, grown.area_grows, plain.charts_after
     );
 }
 

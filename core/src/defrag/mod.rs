@@ -62,6 +62,9 @@ pub struct MergeOptions {
     pub no_retry: bool,
     /// How many times the solve is rerun with the vertices of new overlaps frozen (digest §5.8).
     pub max_freeze_retries: u32,
+    /// How many times an attempt left with overlaps that freezing cannot fix is solved again on
+    /// a larger optimization area (see `Engine::grow_area`).
+    pub max_area_grows: u32,
     /// The face count at which a cluster of charts stops growing (0: one queue for the whole
     /// atlas, the serial baseline). Clusters come from the data alone, never from the thread count.
     pub cluster_faces: u32,
@@ -77,6 +80,7 @@ impl Default for MergeOptions {
             time_limit: 0.0,
             no_retry: false,
             max_freeze_retries: 10,
+            max_area_grows: 1,
             cluster_faces: DEFAULT_CLUSTER_FACES,
         }
     }
@@ -263,6 +267,8 @@ pub struct MergeReport {
     pub vetoes: VetoCounts,
     /// Solves rerun with the vertices of overlapping triangles frozen.
     pub freeze_reruns: u64,
+    /// Solves rerun on a larger optimization area.
+    pub area_grows: u64,
     /// Area-weighted mean isometric energy of the whole atlas against the input UVs.
     pub energy_before: f64,
     pub energy_after: f64,
@@ -313,6 +319,7 @@ impl MergeReport {
         self.vetoes.matching += o.vetoes.matching;
         self.vetoes.boundary += o.vetoes.boundary;
         self.freeze_reruns += o.freeze_reruns;
+        self.area_grows += o.area_grows;
         self.max_accepted_local_energy =
             self.max_accepted_local_energy.max(o.max_accepted_local_energy);
         self.solver_iterations += o.solver_iterations;
