@@ -196,6 +196,9 @@ impl Engine<'_> {
         solver: &mut dyn LocalSolver,
     ) -> Result<(f64, f64, f64), RejectReason> {
         if g.inter {
+            if self.merged_too_large(g) {
+                return Err(RejectReason::TooLarge);
+            }
             let t = Instant::now();
             let clash = self.fixed_parts_overlap(g);
             self.report.timings.early_check_ms += ms(t);
@@ -261,6 +264,22 @@ impl Engine<'_> {
                 }
             }
         }
+    }
+
+    /// Whether the bounding box of chart a and of chart b as aligned and fused exceeds
+    /// `max_chart_extent` on its longer side. Chart b's box is taken from its moved vertices
+    /// (already visited once by the move, so this costs no more than the move did).
+    fn merged_too_large(&self, g: &OpGeometry) -> bool {
+        let limit = self.opts.max_chart_extent;
+        if limit <= 0.0 {
+            return false;
+        }
+        let mut bbox = self.t.charts[g.a.idx()].bbox;
+        for &v in self.moved.iter().chain(self.seeds.iter().map(|(v, _)| v)) {
+            let q = self.t.uv_pos[v as usize];
+            bbox = [bbox[0].min(q[0]), bbox[1].min(q[1]), bbox[2].max(q[0]), bbox[3].max(q[1])];
+        }
+        (bbox[2] - bbox[0]).max(bbox[3] - bbox[1]) > limit
     }
 
     /// The early check: do the fixed (non-optimized) faces of the moved chart b overlap the fixed

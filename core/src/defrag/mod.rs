@@ -65,6 +65,11 @@ pub struct MergeOptions {
     /// How many times an attempt left with overlaps that freezing cannot fix is solved again on
     /// a larger optimization area (see `Engine::grow_area`).
     pub max_area_grows: u32,
+    /// The longest side, in texels, a merged chart's bounding box may have in the merge frame
+    /// (0: no limit). The pipeline sets it to the output sheet side minus the padding on both
+    /// sides, so that no merge makes a chart that cannot be packed on a sheet (the packer would
+    /// give it an oversized sheet of its own).
+    pub max_chart_extent: f64,
     /// The face count at which a cluster of charts stops growing (0: one queue for the whole
     /// atlas, the serial baseline). Clusters come from the data alone, never from the thread count.
     pub cluster_faces: u32,
@@ -81,6 +86,7 @@ impl Default for MergeOptions {
             no_retry: false,
             max_freeze_retries: 10,
             max_area_grows: 1,
+            max_chart_extent: 0.0,
             cluster_faces: DEFAULT_CLUSTER_FACES,
         }
     }
@@ -105,6 +111,9 @@ impl MergeOptions {
         }
         if !ok(self.time_limit) {
             return bad("time-limit", "expected a finite number of seconds ≥ 0");
+        }
+        if !ok(self.max_chart_extent) {
+            return bad("max-sheet-size", "expected a finite chart extent ≥ 0");
         }
         Ok(())
     }
@@ -136,11 +145,13 @@ pub enum RejectReason {
     Fold,
     /// Two triangles of the merged chart overlap that did not overlap before.
     Overlap,
+    /// The merged chart would not fit on an output sheet.
+    TooLarge,
 }
 
 impl RejectReason {
     /// Every reason, in report order.
-    pub const ALL: [Self; 7] = [
+    pub const ALL: [Self; 8] = [
         Self::EarlyOverlap,
         Self::Topology,
         Self::Numerical,
@@ -148,6 +159,7 @@ impl RejectReason {
         Self::GlobalDistortion,
         Self::Fold,
         Self::Overlap,
+        Self::TooLarge,
     ];
 
     /// The kebab-case name used in reports.
@@ -160,6 +172,7 @@ impl RejectReason {
             Self::GlobalDistortion => "global-distortion",
             Self::Fold => "fold",
             Self::Overlap => "overlap",
+            Self::TooLarge => "too-large",
         }
     }
 }
@@ -174,6 +187,7 @@ pub struct RejectCounts {
     pub global_distortion: u64,
     pub fold: u64,
     pub overlap: u64,
+    pub too_large: u64,
 }
 
 impl RejectCounts {
@@ -186,6 +200,7 @@ impl RejectCounts {
             RejectReason::GlobalDistortion => &mut self.global_distortion,
             RejectReason::Fold => &mut self.fold,
             RejectReason::Overlap => &mut self.overlap,
+            RejectReason::TooLarge => &mut self.too_large,
         } += 1;
     }
 
@@ -198,6 +213,7 @@ impl RejectCounts {
             + self.global_distortion
             + self.fold
             + self.overlap
+            + self.too_large
     }
 }
 
@@ -315,6 +331,7 @@ impl MergeReport {
         r.global_distortion += q.global_distortion;
         r.fold += q.fold;
         r.overlap += q.overlap;
+        r.too_large += q.too_large;
         self.vetoes.zero_area += o.vetoes.zero_area;
         self.vetoes.matching += o.vetoes.matching;
         self.vetoes.boundary += o.vetoes.boundary;

@@ -312,3 +312,18 @@ fn a_zero_area_face_that_would_overlap_stays_in_its_chart() {
     let orig = m.faces[4].uv.expect("uvs").map(|u| m.uvs[u.idx()]);
     assert_eq!(uv, orig, "its UVs are untouched");
 }
+
+#[test]
+fn a_merge_that_would_outgrow_the_sheet_is_refused() {
+    // Each half spans 16 × 32 texels; joined they span 32 × 32.
+    let m = two_halves(8, rigid(0.0, [20.0, 20.0], 4.0), rigid(0.7, [150.0, 60.0], 4.0));
+    let mut t = prepare(&m);
+    let before = snapshot(&t);
+    let small = MergeOptions { max_chart_extent: 31.0, ..MergeOptions::default() };
+    let (r, _) = merge_charts(&mut t, &ByError, &mut Keep, &small).expect("valid options");
+    assert_eq!((r.accepted, r.rejected.too_large), (0, r.attempted), "{r:?}");
+    assert_eq!(snapshot(&t), before);
+    let fits = MergeOptions { max_chart_extent: 33.0, ..MergeOptions::default() };
+    let (_, r) = run(&m, &fits);
+    assert_eq!((r.accepted, r.rejected.too_large), (1, 0), "{r:?}");
+}

@@ -230,6 +230,26 @@ pub(crate) fn best_group(faces: &mut [RigidFace], min_area: f64) -> Option<(Anch
     Some((*anchor, list))
 }
 
+/// The `limit` heaviest groups of [`best_group`] that cover at least `min_area`, heaviest first
+/// (ties in order of formation), each with its faces.
+pub(crate) fn ranked_groups(
+    faces: &mut [RigidFace],
+    min_area: f64,
+    limit: usize,
+) -> Vec<(Anchor, Vec<u32>)> {
+    let mut out = Vec::new();
+    let mut rest: Vec<RigidFace> = faces.to_vec();
+    while out.len() < limit {
+        let Some((anchor, list)) = best_group(&mut rest, min_area) else { break };
+        // Take the group out and rank the remaining faces again.
+        let mut taken = list.clone();
+        taken.sort_unstable();
+        rest.retain(|f| taken.binary_search(&f.face).is_err());
+        out.push((anchor, list));
+    }
+    out
+}
+
 /// Composition `a ∘ b` of grid transforms (first `b`, then `a`).
 pub(crate) fn compose(a: &GridTransform, b: &GridTransform) -> GridTransform {
     let lin = |g: &GridTransform, p: [i64; 2]| -> [i64; 2] {

@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use super::anchor::{Anchor, RigidFace, best_group, compose, rigid_image};
+use super::anchor::{Anchor, RigidFace, best_group, compose, ranked_groups, rigid_image};
 use super::footprint::{EPS, cell_bounds, min_area_angle, rasterize};
 use super::{LayoutInput, PackError, PackOptions, PackReport, PackedLayout};
 use crate::geometry::GridTransform;
@@ -156,18 +156,11 @@ fn area_of(a: f64) -> f64 {
     if a.is_finite() && a > 0.0 { a } else { 0.0 }
 }
 
-/// Anchors chart `c`: finds its heaviest rigid group and marks the faces that can be preserved
-/// (every corner claims its vertex's original position; a face whose corner disagrees with an
-/// earlier claim on the same vertex is resampled instead, so each vertex gets one exact value).
-fn anchor_chart(
-    input: &LayoutInput,
-    faces: &[u32],
-    opts: &PackOptions,
-    claim: &mut [[f64; 2]],
-    preserved: &mut [bool],
-) -> Option<Anchor> {
+/// The faces of a chart that are rigid images of their original triangles, and the chart's 3D
+/// area.
+fn rigid_faces(input: &LayoutInput, faces: &[u32], opts: &PackOptions) -> (Vec<RigidFace>, f64) {
     let chart_area: f64 = faces.iter().map(|&f| area_of(input.face_area_3d[f as usize])).sum();
-    let mut rigid: Vec<RigidFace> = faces
+    let rigid = faces
         .iter()
         .filter_map(|&f| {
             let (orig, cur) = corners(input, f);
@@ -183,8 +176,14 @@ fn anchor_chart(
             })
         })
         .collect();
-    let (anchor, group) = best_group(&mut rigid, opts.anchor_min_fraction * chart_area)?;
-    for f in group {
+    (rigid, chart_area)
+}
+
+/// Marks the faces of an anchor group that can be preserved (every corner claims its vertex's
+/// original position; a face whose corner disagrees with an earlier claim on the same vertex is
+/// resampled instead, so each vertex gets one exact value).
+fn claim_group(input: &LayoutInput, group: &[u32], claim: &mut [[f64; 2]], preserved: &mut [bool]) {
+    for &f in group {
         let vs = [0, 1, 2].map(|k| input.corner_vert[3 * f as usize + k] as usize);
         let os = [0, 1, 2].map(|k| input.orig_uv[3 * f as usize + k]);
         let free = |k: usize| claim[vs[k]][0].is_nan() || claim[vs[k]] == os[k];
@@ -195,15 +194,38 @@ fn anchor_chart(
             preserved[f as usize] = true;
         }
     }
-    Some(anchor)
 }
 
+/// Undoes [`claim_group`] for a whole chart.
+fn unclaim_chart(verts: &[u32], faces: &[u32], claim: &mut [[f64; 2]], preserved: &mut [bool]) {
+    for &v in verts {
+        claim[v as usize] = [f64::NAN; 2];
+    }
+    for &f in faces {
+        preserved[f as usize] = false;
+    }
+}
+
+/// How a chart without an anchor is turned.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum FreeTurn {
+    /// To its minimum-area bounding rectangle.
+    MinArea,
+    /// Not at all: the merge stage bounded the box of this frame.
+    AsMerged,
+}
+
+/// Anchor groups tried, heaviest first, when the heaviest one's turn does not fit a sheet.
+const ANCHOR_TRIES: usize = 8;
+
 /// The frame of one chart and its vertices' frame coordinates (written into `frame_uv`).
+#[allow(clippy::too_many_arguments)]
 fn chart_frame(
     input: &LayoutInput,
     chart: u32,
     verts: &[u32],
     anchor: Option<(&Anchor, &[[f64; 2]])>,
+    free_turn: FreeTurn,
     pad: u32,
     frame_uv: &mut [[f64; 2]],
     scratch: &mut Vec<[f64; 2]>,
@@ -212,6 +234,7 @@ fn chart_frame(
     let anchor = anchor.map(|a| a.0);
     let (angle, s, g_lin) = match anchor {
         Some(a) => (-a.residual, a.shift, Some(a.linear())),
+        None if free_turn == FreeTurn::AsMerged => (0.0, [0.0, 0.0], None),
         None => {
             scratch.clear();
             scratch.extend(verts.iter().map(|&v| input.vert_uv[v as usize]));
@@ -278,6 +301,19 @@ fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
 
+/// The output sheet size limit: `--max-sheet-size`, else the largest input sheet (by area, then
+/// width), else 1 × 1.
+pub fn max_sheet_size(opts: &PackOptions, input_sheet_sizes: &[(u32, u32)]) -> (u32, u32) {
+    match opts.max_sheet_size {
+        Some(s) => s,
+        None => input_sheet_sizes
+            .iter()
+            .copied()
+            .max_by_key(|&(w, h)| (u64::from(w) * u64::from(h), w))
+            .unwrap_or((1, 1)),
+    }
+}
+
 /// Packs the charts of `input` onto sheets with `packer`; see [`PackedLayout`] for what comes
 /// out. Deterministic for a deterministic packer; the packer's answer is checked exactly.
 pub fn pack_layout(
@@ -287,15 +323,7 @@ pub fn pack_layout(
 ) -> Result<PackedLayout, PackError> {
     let t = Instant::now();
     let vert_chart = validate(input, opts)?;
-    let max_sheet = match opts.max_sheet_size {
-        Some(s) => s,
-        None => input
-            .input_sheet_sizes
-            .iter()
-            .copied()
-            .max_by_key(|&(w, h)| (u64::from(w) * u64::from(h), w))
-            .unwrap_or((1, 1)),
-    };
+    let max_sheet = max_sheet_size(opts, input.input_sheet_sizes);
     if max_sheet.0 == 0 || max_sheet.1 == 0 {
         return Err(PackError::Options(format!("sheet size {max_sheet:?} is empty")));
     }
@@ -314,16 +342,104 @@ pub fn pack_layout(
         if fs.is_empty() {
             continue;
         }
-        let anchor = anchor_chart(input, fs, opts, &mut claim, &mut face_preserved);
-        let frame = chart_frame(
-            input,
-            c as u32,
-            verts.of(c),
-            anchor.as_ref().map(|a| (a, &claim[..])),
-            opts.padding,
-            &mut frame_uv,
-            &mut scratch,
-        )?;
+        let vs = verts.of(c);
+        let fits = |f: &Frame| {
+            let (w, h) = (f.width, f.height);
+            (w <= max_sheet.0 && h <= max_sheet.1) || (h <= max_sheet.0 && w <= max_sheet.1)
+        };
+        let (mut rigid, chart_area) = rigid_faces(input, fs, opts);
+        let min_area = opts.anchor_min_fraction * chart_area;
+        let best = best_group(&mut rigid, min_area);
+        let mut frame = None;
+        if let Some((anchor, group)) = &best {
+            claim_group(input, group, &mut claim, &mut face_preserved);
+            let f = chart_frame(
+                input,
+                c as u32,
+                vs,
+                Some((anchor, &claim[..])),
+                FreeTurn::MinArea,
+                opts.padding,
+                &mut frame_uv,
+                &mut scratch,
+            )?;
+            if fits(&f) {
+                frame = Some(f);
+            } else {
+                unclaim_chart(vs, fs, &mut claim, &mut face_preserved);
+            }
+        }
+        // Turned to its anchor, a chart that fits a sheet in the merge frame may no longer fit
+        // (a residual turn of up to 45° widens its box by up to √2): try the lighter groups, then
+        // no anchor (minimum-area turn, then the merge frame, whose box the merge stage bounded),
+        // and only then give it an oversized sheet with its heaviest anchor.
+        if frame.is_none() && best.is_some() {
+            for (anchor, group) in ranked_groups(&mut rigid, min_area, ANCHOR_TRIES).iter().skip(1)
+            {
+                claim_group(input, group, &mut claim, &mut face_preserved);
+                let f = chart_frame(
+                    input,
+                    c as u32,
+                    vs,
+                    Some((anchor, &claim[..])),
+                    FreeTurn::MinArea,
+                    opts.padding,
+                    &mut frame_uv,
+                    &mut scratch,
+                )?;
+                if fits(&f) {
+                    report.anchors_changed_to_fit += 1;
+                    frame = Some(f);
+                    break;
+                }
+                unclaim_chart(vs, fs, &mut claim, &mut face_preserved);
+            }
+        }
+        if frame.is_none() {
+            for turn in [FreeTurn::MinArea, FreeTurn::AsMerged] {
+                let f = chart_frame(
+                    input,
+                    c as u32,
+                    vs,
+                    None,
+                    turn,
+                    opts.padding,
+                    &mut frame_uv,
+                    &mut scratch,
+                )?;
+                if fits(&f) || (best.is_none() && turn == FreeTurn::AsMerged) {
+                    report.anchors_dropped_to_fit += usize::from(best.is_some());
+                    frame = Some(f);
+                    break;
+                }
+            }
+        }
+        let frame = match (frame, &best) {
+            (Some(f), _) => f,
+            (None, Some((anchor, group))) => {
+                claim_group(input, group, &mut claim, &mut face_preserved);
+                chart_frame(
+                    input,
+                    c as u32,
+                    vs,
+                    Some((anchor, &claim[..])),
+                    FreeTurn::MinArea,
+                    opts.padding,
+                    &mut frame_uv,
+                    &mut scratch,
+                )?
+            }
+            (None, None) => chart_frame(
+                input,
+                c as u32,
+                vs,
+                None,
+                FreeTurn::AsMerged,
+                opts.padding,
+                &mut frame_uv,
+                &mut scratch,
+            )?,
+        };
         report.anchored_charts += usize::from(frame.g0.is_some());
         *slot = Some(frame);
     }

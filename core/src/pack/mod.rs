@@ -16,7 +16,7 @@ mod layout;
 #[cfg(test)]
 mod tests;
 
-pub use layout::pack_layout;
+pub use layout::{max_sheet_size, pack_layout};
 
 use crate::geometry::GridTransform;
 use crate::plugin::PackerError;
@@ -70,6 +70,11 @@ pub struct PackReport {
     pub charts: usize,
     /// Charts with a grid-preserving anchor.
     pub anchored_charts: usize,
+    /// Charts anchored to a lighter rigid group because the heaviest one's turn did not fit on
+    /// a sheet.
+    pub anchors_changed_to_fit: usize,
+    /// Charts left without an anchor because no group's turn fitted on a sheet.
+    pub anchors_dropped_to_fit: usize,
     /// Faces whose texels are copied verbatim.
     pub preserved_faces: usize,
     /// 3D area of the preserved faces over the 3D area of all packed faces.

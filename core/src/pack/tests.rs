@@ -368,3 +368,51 @@ proptest! {
         prop_assert_eq!(out.report.anchored_charts, rigid);
     }
 }
+
+#[test]
+fn an_anchor_whose_turn_would_not_fit_a_sheet_is_dropped() {
+    // A 40 × 40 square whose only rigid faces (a band of three rows, 7.5% of the area) are its
+    // original triangles turned by 45°: anchored, the chart would be turned by 45° and need a
+    // 57-texel box; as it lies it needs 40 (+ padding), and the sheet is 50 texels wide.
+    let mut m = Mesh::default();
+    let n = 40u32;
+    m.n_charts = 1;
+    let id = |i: u32, j: u32| j * (n + 1) + i;
+    for j in 0..=n {
+        for i in 0..=n {
+            m.vert_uv.push([10.0 + f64::from(i), 10.0 + f64::from(j)]);
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            for tri in [[(i, j), (i + 1, j), (i + 1, j + 1)], [(i, j), (i + 1, j + 1), (i, j + 1)]]
+            {
+                for (a, b) in tri {
+                    m.corner_vert.push(id(a, b));
+                    let p = m.vert_uv[id(a, b) as usize];
+                    m.orig_uv.push(if j < 3 {
+                        let r = rot(-std::f64::consts::FRAC_PI_4, p);
+                        [r[0] + 100.0, r[1] + 100.0]
+                    } else {
+                        [1.3 * p[0], 1.3 * p[1]]
+                    });
+                }
+                m.face_chart.push(0);
+                m.face_sheet.push(0);
+                m.face_area.push(0.5);
+            }
+        }
+    }
+    let opts = PackOptions { max_sheet_size: Some((50, 50)), ..PackOptions::default() };
+    let out = pack_layout(&m.input(&SHEETS), &Shelf, &opts).unwrap();
+    assert_eq!(out.report.anchors_dropped_to_fit, 1, "{:?}", out.report);
+    assert_eq!(out.report.anchored_charts, 0);
+    assert!(out.report.oversized_charts.is_empty(), "{:?}", out.sheet_sizes);
+    assert!(out.face_preserved.iter().all(|&p| !p));
+    assert!(out.sheet_sizes.iter().all(|&(w, h)| w <= 50 && h <= 50), "{:?}", out.sheet_sizes);
+    check_layout(&m, &out, 4);
+    // On a sheet wide enough for the turned box the anchor stays.
+    let wide = PackOptions { max_sheet_size: Some((80, 80)), ..PackOptions::default() };
+    let out = pack_layout(&m.input(&SHEETS), &Shelf, &wide).unwrap();
+    assert_eq!((out.report.anchors_dropped_to_fit, out.report.anchored_charts), (0, 1));
+}

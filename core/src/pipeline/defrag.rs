@@ -12,7 +12,9 @@ use crate::index::{MaterialId, UvId};
 use crate::io::WriteOptions;
 use crate::metrics::{AtlasStats, StatsOptions, atlas_stats};
 use crate::model::{ImageSource, Model};
-use crate::pack::{LayoutInput, PackOptions, PackReport, PackedLayout, pack_layout};
+use crate::pack::{
+    LayoutInput, PackOptions, PackReport, PackedLayout, max_sheet_size, pack_layout,
+};
 use crate::plugin::{Params, Registry};
 use crate::texture::coords::texel_to_uv;
 use crate::texture::encode::{EncodeOptions, write_image};
@@ -199,7 +201,16 @@ pub fn defrag_with_progress(
 
     progress(DefragStage::Merge);
     let t = Instant::now();
-    let (merge, layout) = merge_charts_parallel(&mut topo, scorer.as_ref(), solvers, &cfg.merge)?;
+    let mut merge_opts = cfg.merge.clone();
+    if merge_opts.max_chart_extent == 0.0 {
+        // No merge may make a chart that cannot go on an output sheet (the shorter side, so
+        // that it fits however the packer turns it), padding included.
+        let sizes: Vec<(u32, u32)> = in_sizes.iter().map(|s| s.unwrap_or((1, 1))).collect();
+        let (w, h) = max_sheet_size(&cfg.pack, &sizes);
+        let side = f64::from(w.min(h)) - 2.0 * f64::from(cfg.pack.padding);
+        merge_opts.max_chart_extent = side.max(1.0);
+    }
+    let (merge, layout) = merge_charts_parallel(&mut topo, scorer.as_ref(), solvers, &merge_opts)?;
     times.merge_ms = ms(t);
 
     let out_dir = match output.parent() {
@@ -284,7 +295,7 @@ pub fn defrag_with_progress(
         scorer: cfg.scorer.clone(),
         solver: cfg.solver.clone(),
         packer: (!cfg.merge_only).then(|| cfg.packer.clone()),
-        options: cfg.merge.clone(),
+        options: merge_opts,
         pack_options: (!cfg.merge_only).then_some(cfg.pack),
         faces: model.faces.len() as u64,
         faces_unpacked,
