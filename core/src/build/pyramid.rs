@@ -1,0 +1,280 @@
+//! Gaussian and Laplacian pyramids (Burt & Adelson) of the photos, for the frequency analysis
+//! of the build (paper §4.1) and for texturing sub-charts from a coarser level (§4.2).
+//!
+//! `G_{k+1} = REDUCE(G_k)`: the 5-tap binomial filter `[1 4 6 4 1]/16` in both directions, then
+//! every second pixel (pixel `i` of level `k+1` is centred on pixel `2i` of level `k`, so a level
+//! is `ceil(W/2) × ceil(H/2)`). `L_k = G_k − EXPAND(G_{k+1})`, where EXPAND interpolates with the
+//! same filter (weights `1/8, 3/4, 1/8` on even pixels, `1/2, 1/2` on odd ones). Borders mirror
+//! without repeating the edge pixel. The analysis works on one `f32` luminance plane per photo,
+//! level by level, turning each `G_k` into `L_k` in place once `G_{k+1}` exists, so at most
+//! `1.25` planes of the photo are in memory at a time. The colour levels a sub-chart needs are
+//! built by [`reduce_store`] from memory-mapped [`TileStore`]s, a band of rows at a time.
+
+use std::path::Path;
+
+use rayon::prelude::*;
+
+use crate::texture::{PixelFormat, SampleType, TextureError, TileStore};
+
+/// Most Gaussian levels analysed and used (levels `0..MAX_LEVELS`; 5 = 1/32 of the resolution).
+pub const MAX_LEVELS: usize = 6;
+/// A level is only built while its smaller side keeps at least this many pixels.
+pub const MIN_SIDE: u32 = 16;
+
+const W5: [f32; 5] = [1.0 / 16.0, 4.0 / 16.0, 6.0 / 16.0, 4.0 / 16.0, 1.0 / 16.0];
+
+/// Size of level `l` of a `w × h` image.
+pub fn level_size(w: u32, h: u32, l: usize) -> (u32, u32) {
+    let d = 1u64 << l;
+    (u64::from(w).div_ceil(d) as u32, u64::from(h).div_ceil(d) as u32)
+}
+
+/// Gaussian levels of a `w × h` image: level 0 plus every level whose smaller side is still at
+/// least [`MIN_SIDE`], at most [`MAX_LEVELS`].
+pub fn level_count(w: u32, h: u32) -> usize {
+    let mut n = 1;
+    while n < MAX_LEVELS {
+        let (a, b) = level_size(w, h, n);
+        if a.min(b) < MIN_SIDE {
+            break;
+        }
+        n += 1;
+    }
+    n
+}
+
+/// A level-0 texel-space point (v up) of an image `h0` pixels high, in the texel space of level
+/// `l`. Pixel `i` of level `l` is centred on pixel `2^l·i` of level 0, so in pixel coordinates
+/// (from the top-left corner) `x_l = x_0·2^-l + (1 − 2^-l)/2`; texel space flips y. Level 0 is
+/// returned unchanged (bit for bit), which keeps a build without splitting identical.
+#[inline]
+pub fn to_level(p: [f64; 2], l: usize, h0: u32) -> [f64; 2] {
+    if l == 0 {
+        return p;
+    }
+    let s = 1.0 / (1u64 << l) as f64;
+    let c = 0.5 * (1.0 - s);
+    let hl = f64::from(level_size(1, h0, l).1);
+    [p[0] * s + c, hl - (f64::from(h0) - p[1]) * s - c]
+}
+
+/// Mirror index `i` into `0..n` without repeating the edge sample.
+#[inline]
+fn mirror(i: isize, n: usize) -> usize {
+    if n == 1 {
+        return 0;
+    }
+    let n = n as isize;
+    let i = if i < 0 { -i } else { i };
+    let i = if i >= n { 2 * (n - 1) - i } else { i };
+    i.clamp(0, n - 1) as usize
+}
+
+/// One channel of an image in `f32`, row-major, row 0 at the top.
+#[derive(Clone, Debug, Default)]
+pub struct Plane {
+    pub w: usize,
+    pub h: usize,
+    pub data: Vec<f32>,
+}
+
+impl Plane {
+    /// A zero plane.
+    pub fn new(w: usize, h: usize) -> Self {
+        Self { w, h, data: vec![0.0; w * h] }
+    }
+
+    #[inline]
+    pub fn at(&self, x: usize, y: usize) -> f32 {
+        self.data[y * self.w + x]
+    }
+
+    /// Resizes to `w × h` keeping the allocation when it is large enough (contents undefined).
+    fn reshape(&mut self, w: usize, h: usize) {
+        self.w = w;
+        self.h = h;
+        self.data.resize(w * h, 0.0);
+    }
+}
+
+/// Sample `c` of a pixel's bytes, scaled so that full scale is 1.
+#[inline]
+fn unit_sample(px: &[u8], c: usize, t: SampleType) -> f32 {
+    match t {
+        SampleType::U8 => f32::from(px[c]) / 255.0,
+        SampleType::U16 => f32::from(u16::from_ne_bytes([px[2 * c], px[2 * c + 1]])) / 65535.0,
+        SampleType::F32 => {
+            f32::from_ne_bytes([px[4 * c], px[4 * c + 1], px[4 * c + 2], px[4 * c + 3]])
+        }
+    }
+}
+
+/// The luminance plane of a photo (Rec. 709 weights on the stored, gamma-encoded values, which
+/// is what the eye compares; gray images are their own luminance; alpha is ignored).
+pub fn luminance(store: &TileStore, out: &mut Plane) {
+    let (w, h) = (store.width() as usize, store.height() as usize);
+    let f = store.format();
+    let bpp = f.bytes_per_pixel();
+    out.reshape(w, h);
+    out.data.par_chunks_mut(w).enumerate().for_each_init(
+        || vec![0u8; w * bpp],
+        |row, (y, dst)| {
+            store.read_row(y as u32, 0, row);
+            for (x, v) in dst.iter_mut().enumerate() {
+                let px = &row[x * bpp..(x + 1) * bpp];
+                *v = if f.channels >= 3 {
+                    0.2126 * unit_sample(px, 0, f.sample)
+                        + 0.7152 * unit_sample(px, 1, f.sample)
+                        + 0.0722 * unit_sample(px, 2, f.sample)
+                } else {
+                    unit_sample(px, 0, f.sample)
+                };
+            }
+        },
+    );
+}
+
+/// The binomial filter at even columns of one row: `out[i] = Σ_m w_m·row[2i + m − 2]`.
+#[inline]
+fn filter_row_even(row: &[f32], out: &mut [f32]) {
+    let n = row.len();
+    for (i, o) in out.iter_mut().enumerate() {
+        let x = 2 * i as isize;
+        let mut acc = 0.0;
+        if x >= 2 && (x as usize) + 2 < n {
+            let x = x as usize;
+            for m in 0..5 {
+                acc += W5[m] * row[x + m - 2];
+            }
+        } else {
+            for m in 0..5 {
+                acc += W5[m] * row[mirror(x + m as isize - 2, n)];
+            }
+        }
+        *o = acc;
+    }
+}
+
+/// `G_{k+1} = REDUCE(G_k)` into `dst` (reshaped to `ceil(w/2) × ceil(h/2)`).
+pub fn reduce(src: &Plane, dst: &mut Plane) {
+    let (dw, dh) = (src.w.div_ceil(2), src.h.div_ceil(2));
+    dst.reshape(dw, dh);
+    dst.data.par_chunks_mut(dw).enumerate().for_each_init(
+        || vec![0.0f32; dw],
+        |tmp, (j, out)| {
+            out.iter_mut().for_each(|v| *v = 0.0);
+            for (n, &wn) in W5.iter().enumerate() {
+                let y = mirror(2 * j as isize + n as isize - 2, src.h);
+                filter_row_even(&src.data[y * src.w..(y + 1) * src.w], tmp);
+                for (o, &t) in out.iter_mut().zip(tmp.iter()) {
+                    *o += wn * t;
+                }
+            }
+        },
+    );
+}
+
+/// The EXPAND taps of output position `x` over a level of `n` samples: indices and weights.
+#[inline]
+fn expand_taps(x: usize, n: usize) -> ([usize; 3], [f32; 3]) {
+    let i = (x / 2) as isize;
+    if x % 2 == 0 {
+        ([mirror(i - 1, n), mirror(i, n), mirror(i + 1, n)], [0.125, 0.75, 0.125])
+    } else {
+        ([mirror(i, n), mirror(i + 1, n), 0], [0.5, 0.5, 0.0])
+    }
+}
+
+/// Turns `g = G_k` into `L_k = G_k − EXPAND(next)` in place, `next = G_{k+1}`.
+pub fn laplacian_in_place(g: &mut Plane, next: &Plane) {
+    let (w, nw, nh) = (g.w, next.w, next.h);
+    g.data.par_chunks_mut(w).enumerate().for_each_init(
+        || vec![0.0f32; nw],
+        |col, (y, row)| {
+            // Vertical interpolation first (one row of `next`'s width), then horizontal.
+            let (ty, wy) = expand_taps(y, nh);
+            for (i, c) in col.iter_mut().enumerate() {
+                *c = wy[0] * next.data[ty[0] * nw + i]
+                    + wy[1] * next.data[ty[1] * nw + i]
+                    + wy[2] * next.data[ty[2] * nw + i];
+            }
+            for (x, v) in row.iter_mut().enumerate() {
+                let (tx, wx) = expand_taps(x, nw);
+                *v -= wx[0] * col[tx[0]] + wx[1] * col[tx[1]] + wx[2] * col[tx[2]];
+            }
+        },
+    );
+}
+
+/// Reads sample `c` of a pixel in its own units.
+#[inline]
+fn load(px: &[u8], c: usize, t: SampleType) -> f32 {
+    match t {
+        SampleType::U8 => f32::from(px[c]),
+        SampleType::U16 => f32::from(u16::from_ne_bytes([px[2 * c], px[2 * c + 1]])),
+        SampleType::F32 => {
+            f32::from_ne_bytes([px[4 * c], px[4 * c + 1], px[4 * c + 2], px[4 * c + 3]])
+        }
+    }
+}
+
+/// Writes sample `c` of a pixel, rounded and clamped for integer types.
+#[inline]
+fn store(px: &mut [u8], c: usize, t: SampleType, v: f32) {
+    match t {
+        SampleType::U8 => px[c] = (v.clamp(0.0, 255.0) + 0.5) as u8,
+        SampleType::U16 => px[2 * c..2 * c + 2]
+            .copy_from_slice(&((v.clamp(0.0, 65535.0) + 0.5) as u16).to_ne_bytes()),
+        SampleType::F32 => px[4 * c..4 * c + 4].copy_from_slice(&v.to_ne_bytes()),
+    }
+}
+
+/// Output rows computed per band of [`reduce_store`] before they are written.
+const BAND: usize = 64;
+
+/// `REDUCE` of a whole image in a tile store, every channel (alpha too), into a new store of
+/// the same pixel format under `work_dir`. Rows are computed in parallel a band at a time and
+/// written in order, so the result does not depend on the thread count.
+pub fn reduce_store(src: &TileStore, work_dir: &Path) -> Result<TileStore, TextureError> {
+    let f: PixelFormat = src.format();
+    let (sw, sh) = (src.width() as usize, src.height() as usize);
+    let (dw, dh) = (sw.div_ceil(2), sh.div_ceil(2));
+    let mut dst = TileStore::create(work_dir, dw as u32, dh as u32, f)?;
+    let ch = f.channels as usize;
+    let bpp = f.bytes_per_pixel();
+    let mut band = vec![0u8; BAND * dw * bpp];
+    let mut j0 = 0;
+    while j0 < dh {
+        let rows = BAND.min(dh - j0);
+        band[..rows * dw * bpp].par_chunks_mut(dw * bpp).enumerate().for_each_init(
+            || (vec![0u8; sw * bpp], vec![0.0f32; sw], vec![0.0f32; dw], vec![0.0f32; dw * ch]),
+            |(bytes, line, tmp, acc), (r, out)| {
+                let j = j0 + r;
+                acc.iter_mut().for_each(|v| *v = 0.0);
+                for (n, &wn) in W5.iter().enumerate() {
+                    let y = mirror(2 * j as isize + n as isize - 2, sh);
+                    src.read_row(y as u32, 0, bytes);
+                    for c in 0..ch {
+                        for (x, v) in line.iter_mut().enumerate() {
+                            *v = load(&bytes[x * bpp..(x + 1) * bpp], c, f.sample);
+                        }
+                        filter_row_even(line, tmp);
+                        for (i, &t) in tmp.iter().enumerate() {
+                            acc[i * ch + c] += wn * t;
+                        }
+                    }
+                }
+                for i in 0..dw {
+                    for c in 0..ch {
+                        store(&mut out[i * bpp..(i + 1) * bpp], c, f.sample, acc[i * ch + c]);
+                    }
+                }
+            },
+        );
+        for r in 0..rows {
+            dst.write_row((j0 + r) as u32, 0, &band[r * dw * bpp..(r + 1) * dw * bpp]);
+        }
+        j0 += rows;
+    }
+    Ok(dst)
+}
