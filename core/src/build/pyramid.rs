@@ -97,15 +97,27 @@ impl Plane {
     }
 }
 
-/// Sample `c` of a pixel's bytes, scaled so that full scale is 1.
-#[inline]
-fn unit_sample(px: &[u8], c: usize, t: SampleType) -> f32 {
-    match t {
-        SampleType::U8 => f32::from(px[c]) / 255.0,
-        SampleType::U16 => f32::from(u16::from_ne_bytes([px[2 * c], px[2 * c + 1]])) / 65535.0,
-        SampleType::F32 => {
-            f32::from_ne_bytes([px[4 * c], px[4 * c + 1], px[4 * c + 2], px[4 * c + 3]])
-        }
+/// Rec. 709 luma weights.
+const LUMA: [f32; 3] = [0.2126, 0.7152, 0.0722];
+
+/// Converts one row of pixel bytes to luminance with full scale 1; `load(px, c)` reads sample
+/// `c` of a pixel in its own units. Inlined per sample type so the inner loop is plain
+/// arithmetic.
+#[inline(always)]
+fn luma_row(
+    row: &[u8],
+    channels: usize,
+    bpp: usize,
+    scale: f32,
+    load: impl Fn(&[u8], usize) -> f32,
+    out: &mut [f32],
+) {
+    for (v, px) in out.iter_mut().zip(row.chunks_exact(bpp)) {
+        *v = if channels >= 3 {
+            scale * (LUMA[0] * load(px, 0) + LUMA[1] * load(px, 1) + LUMA[2] * load(px, 2))
+        } else {
+            scale * load(px, 0)
+        };
     }
 }
 
@@ -114,21 +126,20 @@ fn unit_sample(px: &[u8], c: usize, t: SampleType) -> f32 {
 pub fn luminance(store: &TileStore, out: &mut Plane) {
     let (w, h) = (store.width() as usize, store.height() as usize);
     let f = store.format();
-    let bpp = f.bytes_per_pixel();
+    let (ch, bpp) = (f.channels as usize, f.bytes_per_pixel());
     out.reshape(w, h);
     out.data.par_chunks_mut(w).enumerate().for_each_init(
         || vec![0u8; w * bpp],
         |row, (y, dst)| {
             store.read_row(y as u32, 0, row);
-            for (x, v) in dst.iter_mut().enumerate() {
-                let px = &row[x * bpp..(x + 1) * bpp];
-                *v = if f.channels >= 3 {
-                    0.2126 * unit_sample(px, 0, f.sample)
-                        + 0.7152 * unit_sample(px, 1, f.sample)
-                        + 0.0722 * unit_sample(px, 2, f.sample)
-                } else {
-                    unit_sample(px, 0, f.sample)
-                };
+            match f.sample {
+                SampleType::U8 => {
+                    luma_row(row, ch, bpp, 1.0 / 255.0, |px, c| f32::from(px[c]), dst)
+                }
+                SampleType::U16 => {
+                    luma_row(row, ch, bpp, 1.0 / 65535.0, |px, c| load(px, c, f.sample), dst)
+                }
+                SampleType::F32 => luma_row(row, ch, bpp, 1.0, |px, c| load(px, c, f.sample), dst),
             }
         },
     );
@@ -139,19 +150,17 @@ pub fn luminance(store: &TileStore, out: &mut Plane) {
 fn filter_row_even(row: &[f32], out: &mut [f32]) {
     let n = row.len();
     for (i, o) in out.iter_mut().enumerate() {
-        let x = 2 * i as isize;
-        let mut acc = 0.0;
-        if x >= 2 && (x as usize) + 2 < n {
-            let x = x as usize;
-            for m in 0..5 {
-                acc += W5[m] * row[x + m - 2];
-            }
+        let x = 2 * i;
+        *o = if x >= 2 && x + 2 < n {
+            let r = &row[x - 2..x + 3];
+            W5[0] * r[0] + W5[1] * r[1] + W5[2] * r[2] + W5[3] * r[3] + W5[4] * r[4]
         } else {
-            for m in 0..5 {
-                acc += W5[m] * row[mirror(x + m as isize - 2, n)];
+            let mut acc = 0.0;
+            for (m, &wm) in W5.iter().enumerate() {
+                acc += wm * row[mirror(x as isize + m as isize - 2, n)];
             }
-        }
-        *o = acc;
+            acc
+        };
     }
 }
 
@@ -198,16 +207,27 @@ pub fn laplacian_in_place(g: &mut Plane, next: &Plane) {
                     + wy[1] * next.data[ty[1] * nw + i]
                     + wy[2] * next.data[ty[2] * nw + i];
             }
-            for (x, v) in row.iter_mut().enumerate() {
+            // Interior columns need no mirroring: even x blends three samples, odd x two.
+            let lo = 2.min(w);
+            let hi = (2 * nw).saturating_sub(3).clamp(lo, w);
+            for x in (0..lo).chain(hi..w) {
                 let (tx, wx) = expand_taps(x, nw);
-                *v -= wx[0] * col[tx[0]] + wx[1] * col[tx[1]] + wx[2] * col[tx[2]];
+                row[x] -= wx[0] * col[tx[0]] + wx[1] * col[tx[1]] + wx[2] * col[tx[2]];
+            }
+            for x in lo..hi {
+                let i = x / 2;
+                row[x] -= if x % 2 == 0 {
+                    0.125 * col[i - 1] + 0.75 * col[i] + 0.125 * col[i + 1]
+                } else {
+                    0.5 * (col[i] + col[i + 1])
+                };
             }
         },
     );
 }
 
 /// Reads sample `c` of a pixel in its own units.
-#[inline]
+#[inline(always)]
 fn load(px: &[u8], c: usize, t: SampleType) -> f32 {
     match t {
         SampleType::U8 => f32::from(px[c]),

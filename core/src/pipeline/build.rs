@@ -119,10 +119,11 @@ pub struct BuildReport {
     pub texels: u64,
     pub sheet_sizes: Vec<(u32, u32)>,
     pub sheets: Vec<PathBuf>,
-    /// Mean absolute colour difference (8-bit units, mean of RGB) across chart frontiers,
-    /// sampled just inside both faces of each frontier edge.
+    /// Mean absolute colour difference (8-bit units, mean of RGB) across photo seams (chart
+    /// frontiers between different photos), sampled just inside both faces of each edge.
     pub seam_jump_before: f64,
     pub seam_jump_after: f64,
+    /// Photo seams (edges between faces textured from different photos).
     pub frontier_edges: usize,
     pub smoothing: bool,
     pub smoothing_sweeps: u64,
@@ -471,7 +472,18 @@ pub fn build(
     // Frontiers between sub-charts: with splitting, a level change inside a chart is a seam
     // too, and smoothing evens out the small colour step it makes.
     let seams = frontier_edges(&tris, &adj, &sub.face_sub);
-    let seam_jump_before = seam_jump(&seams, &tris, &packed.face_sheet, &out_uv, &res.sheets);
+    // The colour jump is measured across photo seams only: a level change inside a chart is
+    // no lighting seam (and without splitting every frontier is a photo seam, since adjacent
+    // charts of one photo are merged).
+    let photo_seams: Vec<Seam> = seams
+        .iter()
+        .copied()
+        .filter(|sm| {
+            let cam = |f: u32| sub_camera[sub.face_sub[f as usize] as usize];
+            cam(sm.f) != cam(sm.g)
+        })
+        .collect();
+    let seam_jump_before = seam_jump(&photo_seams, &tris, &packed.face_sheet, &out_uv, &res.sheets);
     let mut sweeps = 0u64;
     if cfg.smoothing && !seams.is_empty() {
         sweeps = smooth(
@@ -489,7 +501,7 @@ pub fn build(
             &mut res.sheets,
         );
     }
-    let seam_jump_after = seam_jump(&seams, &tris, &packed.face_sheet, &out_uv, &res.sheets);
+    let seam_jump_after = seam_jump(&photo_seams, &tris, &packed.face_sheet, &out_uv, &res.sheets);
     times.smoothing_ms = ms(t);
     drop(refs);
     drop(photos);
@@ -571,7 +583,7 @@ pub fn build(
         sheets: sheet_paths,
         seam_jump_before,
         seam_jump_after,
-        frontier_edges: seams.len(),
+        frontier_edges: photo_seams.len(),
         smoothing: cfg.smoothing,
         smoothing_sweeps: sweeps,
         frequency_split: freq.is_some(),
@@ -891,6 +903,10 @@ fn smooth(
             let (f, k) = (f as usize, k as usize);
             let gc = face_chart[g as usize] as usize;
             let other = chart_camera[gc] as usize;
+            // Sub-charts of one photo (a level change inside a split chart) share its lighting:
+            // the correction there is pinned to zero on both sides, so corrections coming from
+            // other photos fade out towards such a frontier instead of stepping across it.
+            let same_photo = other == chart_camera[c] as usize;
             let uv = [0, 1, 2].map(|q| out_uv(f, q));
             let (pa, pb) =
                 (positions[tris[f][k] as usize], positions[tris[f][(k + 1) % 3] as usize]);
@@ -902,11 +918,15 @@ fn smooth(
                 let t = (f64::from(s) + 0.5) / f64::from(steps + 1);
                 let q = inside_point(uv, k, t);
                 let x = [0, 1, 2].map(|d| pa[d] + t * (pb[d] - pa[d]));
-                let Some(po) = cams[other].project_texel(x) else { continue };
-                let po = to_level(po, usize::from(chart_level[gc]), cams[other].intr.height);
-                let mine = smoothing::sample(store, q);
-                let theirs = smoothing::sample(&photos[chart_sheet[gc] as usize], po);
-                let corr = [0, 1, 2].map(|d| 0.5 * (theirs[d] - mine[d]));
+                let corr = if same_photo {
+                    [0.0; 3]
+                } else {
+                    let Some(po) = cams[other].project_texel(x) else { continue };
+                    let po = to_level(po, usize::from(chart_level[gc]), cams[other].intr.height);
+                    let mine = smoothing::sample(store, q);
+                    let theirs = smoothing::sample(&photos[chart_sheet[gc] as usize], po);
+                    [0, 1, 2].map(|d| 0.5 * (theirs[d] - mine[d]))
+                };
                 let (px, py) = (q[0].floor(), (f64::from(h) - q[1]).floor());
                 if px >= 0.0 && py >= 0.0 && px < f64::from(w) && py < f64::from(h) {
                     grid.add(px as u32, py as u32, corr);
