@@ -143,6 +143,14 @@ fn frequency_split_saves_texels_on_smooth_regions_and_keeps_the_colour() {
     assert!(
         model.uvs.iter().all(|uv| (0.0..=1.0).contains(&uv[0]) && (0.0..=1.0).contains(&uv[1]))
     );
+    // The same atlas whatever the thread count.
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let (out_one, _) = one.install(|| run("split_1thread", base.clone()));
+    for f in ["atlas.obj", "atlas_0.png"] {
+        let a = std::fs::read(out_split.with_file_name(f)).unwrap();
+        let b = std::fs::read(out_one.with_file_name(f)).unwrap();
+        assert!(a == b, "{f}: one thread and the default pool give the same atlas");
+    }
     // No coarse level at all: the same atlas as without the analysis, byte for byte.
     let mut fine = base.clone();
     fine.frequency.max_level = 0;

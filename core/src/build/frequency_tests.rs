@@ -190,7 +190,7 @@ fn greedy_smoothing_reduces_level_changes_and_only_refines() {
     let before = level_changes(&levels, &adj, &chart);
     let (passes, switches) = smooth_levels(&mut levels, &adj, &chart, 8);
     let after = level_changes(&levels, &adj, &chart);
-    assert!(switches > 0 && passes >= 1 && passes <= 8);
+    assert!(switches > 0 && (1..=8).contains(&passes));
     assert!(after < before * 3 / 4, "level changes {before} -> {after}");
     for f in 0..nf {
         assert!(levels[f] <= base[f], "face {f}: {} -> {}", base[f], levels[f]);

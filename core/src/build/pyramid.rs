@@ -187,7 +187,7 @@ pub fn reduce(src: &Plane, dst: &mut Plane) {
 #[inline]
 fn expand_taps(x: usize, n: usize) -> ([usize; 3], [f32; 3]) {
     let i = (x / 2) as isize;
-    if x % 2 == 0 {
+    if x.is_multiple_of(2) {
         ([mirror(i - 1, n), mirror(i, n), mirror(i + 1, n)], [0.125, 0.75, 0.125])
     } else {
         ([mirror(i, n), mirror(i + 1, n), 0], [0.5, 0.5, 0.0])
@@ -214,9 +214,9 @@ pub fn laplacian_in_place(g: &mut Plane, next: &Plane) {
                 let (tx, wx) = expand_taps(x, nw);
                 row[x] -= wx[0] * col[tx[0]] + wx[1] * col[tx[1]] + wx[2] * col[tx[2]];
             }
-            for x in lo..hi {
+            for (x, v) in row.iter_mut().enumerate().take(hi).skip(lo) {
                 let i = x / 2;
-                row[x] -= if x % 2 == 0 {
+                *v -= if x.is_multiple_of(2) {
                     0.125 * col[i - 1] + 0.75 * col[i] + 0.125 * col[i + 1]
                 } else {
                     0.5 * (col[i] + col[i + 1])
