@@ -95,6 +95,10 @@ pub struct SynthRigArgs {
     pub width: u32,
     #[arg(long, default_value_t = 480)]
     pub height: u32,
+    /// About this fraction (0 to 1) of the surface gets no fine detail, as plaster or skin
+    /// has (what the build's frequency-based splitting saves texels on).
+    #[arg(long, default_value_t = 0.0, value_name = "F")]
+    pub smooth_regions: f64,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
 }

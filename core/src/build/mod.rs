@@ -1,15 +1,21 @@
 //! `build`: a texture atlas from registered photographs (Velho & Sossai, "Projective texture
 //! atlas construction for 3D photography"): cameras (COLMAP, Bundler), visibility, the
-//! variational distortion-based partition, projective parametrization, and colour smoothing.
+//! variational distortion-based partition, projective parametrization, the frequency analysis
+//! and frequency-based chart splitting (Laplacian pyramids), and colour smoothing.
 //! The orchestration (packing, texturing, output) lives in [`crate::pipeline::build`].
 
 pub mod bundler;
 pub mod cameras;
 pub mod colmap;
+pub mod frequency;
 pub mod partition;
+pub mod pyramid;
 pub mod smoothing;
+pub mod split;
 pub mod visibility;
 
+#[cfg(test)]
+mod frequency_tests;
 #[cfg(test)]
 mod tests;
 

@@ -3,6 +3,10 @@
 //! priority flooding with `D(f, c) = ‖n_f + n_c‖²·a_f`, alternated until no chart is added, then
 //! merging of adjacent charts that share a camera.
 //!
+//! The flooding itself ([`flood_partition`]) is generic over a [`Metric`], so the
+//! frequency-based splitting of §4.2 ([`super::split`]) runs the very same adding, growing and
+//! merging with the metric `F(f, l) = |l − l_f|·a_f` on each chart.
+//!
 //! `n_c` is the viewing direction from the camera centre to the face (unit), so a face seen
 //! head-on (`n_f = −n_c`) costs 0 and a grazing one up to `2·a_f`. Using the ray to each face
 //! rather than the optical axis alone keeps wide-angle photos honest at their edges.
@@ -128,18 +132,70 @@ fn grow(
             continue;
         }
         chart[face as usize] = c;
-        let cam = seeds[c as usize].1;
+        let label = seeds[c as usize].1;
         for &g in &adj[face as usize] {
-            if g != NONE && chart[g as usize] == NONE && sees(g as usize, cam) {
-                heap.push(Item { cost: cost(g as usize, cam), face: g, chart: c });
+            if g != NONE && chart[g as usize] == NONE && sees(g as usize, label) {
+                heap.push(Item { cost: cost(g as usize, label), face: g, chart: c });
             }
         }
     }
     chart
 }
 
-/// Algorithm 1 of the paper. `max_rounds` bounds the adding/growing alternation (each round may
-/// add many seeds; see the code).
+/// What the variational flooding of Algorithm 1 needs from a metric: the labels a face may take
+/// (cameras that see it for `D`, pyramid levels for `F`) and the cost of giving it one.
+///
+/// The engine ([`flood_partition`]) only ever compares costs and tests membership, so the
+/// distortion-based partition of §3.2 and the frequency-based splitting of §4.2 share it.
+pub trait Metric {
+    /// Number of labels; labels are `0..labels()`.
+    fn labels(&self) -> usize;
+    /// The labels face `f` may take, sorted increasingly; empty = the face joins no chart.
+    fn allowed(&self, f: usize) -> &[u32];
+    /// Cost of face `f` in a chart of label `label` (smaller is better).
+    fn cost(&self, f: usize, label: u32) -> f64;
+}
+
+/// The result of [`flood_partition`].
+#[derive(Clone, Debug, Default)]
+pub struct Flooded {
+    /// Chart of each face; [`NONE`] for faces with no allowed label.
+    pub face_chart: Vec<u32>,
+    /// Label of each chart.
+    pub chart_label: Vec<u32>,
+    /// Adding/growing rounds run.
+    pub rounds: u32,
+    /// Charts before merging.
+    pub charts_before_merge: usize,
+    /// Total cost of the partition.
+    pub cost: f64,
+}
+
+/// The paper's `D(f, c)` as a [`Metric`]: labels are cameras, allowed where visible.
+struct Distortion<'a> {
+    geom: &'a FaceGeom,
+    vis: &'a Visibility,
+    centres: Vec<[f64; 3]>,
+}
+
+impl Metric for Distortion<'_> {
+    fn labels(&self) -> usize {
+        self.centres.len()
+    }
+    fn allowed(&self, f: usize) -> &[u32] {
+        self.vis.of(f)
+    }
+    #[inline]
+    fn cost(&self, f: usize, c: u32) -> f64 {
+        let g = self.geom;
+        let v = normalize(sub(g.centroid[f], self.centres[c as usize]));
+        let s = [g.normal[f][0] + v[0], g.normal[f][1] + v[1], g.normal[f][2] + v[2]];
+        dot(s, s) * g.area[f]
+    }
+}
+
+/// Algorithm 1 of the paper with the distortion metric `D`. `max_rounds` bounds the
+/// adding/growing alternation (each round may add many seeds; see [`flood_partition`]).
 pub fn partition(
     geom: &FaceGeom,
     adj: &[[u32; 3]],
@@ -147,28 +203,40 @@ pub fn partition(
     cams: &[PhotoCamera],
     max_rounds: u32,
 ) -> Partition {
+    let metric = Distortion { geom, vis, centres: cams.iter().map(PhotoCamera::centre).collect() };
+    let r = flood_partition(adj, &metric, max_rounds);
+    Partition {
+        face_chart: r.face_chart,
+        chart_camera: r.chart_label,
+        rounds: r.rounds,
+        charts_before_merge: r.charts_before_merge,
+        distortion: r.cost,
+    }
+}
+
+/// Algorithm 1 with any [`Metric`]: chart adding (each label's cheapest face as a seed, then
+/// farthest-point seeds at the costliest faces), chart growing by priority flooding, alternated
+/// until no chart is added (or `max_rounds`), then merging of adjacent charts of one label.
+/// `adj` is the edge adjacency of the faces taking part ([`NONE`] = no neighbour); a face only
+/// joins a chart whose label it allows.
+pub fn flood_partition<M: Metric + ?Sized>(adj: &[[u32; 3]], m: &M, max_rounds: u32) -> Flooded {
     let nf = adj.len();
-    let centres: Vec<[f64; 3]> = cams.iter().map(PhotoCamera::centre).collect();
-    let cost = |f: usize, c: u32| {
-        let v = normalize(sub(geom.centroid[f], centres[c as usize]));
-        let s = [geom.normal[f][0] + v[0], geom.normal[f][1] + v[1], geom.normal[f][2] + v[2]];
-        dot(s, s) * geom.area[f]
-    };
-    let sees = |f: usize, c: u32| vis.of(f).binary_search(&c).is_ok();
-    // The best (least-distorted) camera of each seen face.
+    let cost = |f: usize, c: u32| m.cost(f, c);
+    let sees = |f: usize, c: u32| m.allowed(f).binary_search(&c).is_ok();
+    // The best (cheapest) label of each face that has one.
     let best: Vec<u32> = (0..nf)
         .map(|f| {
-            vis.of(f)
+            m.allowed(f)
                 .iter()
                 .copied()
                 .min_by(|&a, &b| cost(f, a).total_cmp(&cost(f, b)).then(a.cmp(&b)))
                 .unwrap_or(NONE)
         })
         .collect();
-    // Chart adding, bootstrap: each camera's least-distorted visible face.
-    let mut seed_cost: Vec<Option<(f64, u32)>> = vec![None; cams.len()];
+    // Chart adding, bootstrap: each label's cheapest allowed face.
+    let mut seed_cost: Vec<Option<(f64, u32)>> = vec![None; m.labels()];
     for f in 0..nf {
-        for &c in vis.of(f) {
+        for &c in m.allowed(f) {
             let d = cost(f, c);
             let s = &mut seed_cost[c as usize];
             if s.is_none_or(|(e, _)| d < e) {
@@ -189,9 +257,9 @@ pub fn partition(
     let mut chart = grow(&seeds, adj, &sees, &cost);
     let mut rounds = 1;
     loop {
-        // Farthest-point candidates: a face whose own best camera differs from its chart's, and
-        // whose neighbours agree on that best camera (so a new chart there can grow), or a seen
-        // face no chart reached. Worst distortion first.
+        // Farthest-point candidates: a face whose own best label differs from its chart's, and
+        // whose neighbours agree on that best label (so a new chart there can grow), or a face
+        // with labels that no chart reached. Costliest first.
         let mut cand: Vec<(f64, u32)> = Vec::new();
         for f in 0..nf {
             if best[f] == NONE || seeded[f] {
@@ -202,14 +270,14 @@ pub fn partition(
                 cand.push((f64::INFINITY, f as u32));
                 continue;
             }
-            let cam = seeds[c as usize].1;
-            if cam == best[f] {
+            let label = seeds[c as usize].1;
+            if label == best[f] {
                 continue;
             }
             let agree = adj[f].iter().all(|&g| g == NONE || best[g as usize] == best[f]);
-            let gain = cost(f, cam) - cost(f, best[f]);
+            let gain = cost(f, label) - cost(f, best[f]);
             if agree && gain > 0.0 {
-                cand.push((cost(f, cam), f as u32));
+                cand.push((cost(f, label), f as u32));
             }
         }
         let unreached = cand.iter().any(|c| c.0.is_infinite());
@@ -245,7 +313,7 @@ pub fn partition(
         rounds += 1;
     }
     // Charts that lost their seed to nothing cannot exist (a seed always takes its own face), so
-    // every seed is a chart. Merge adjacent charts with the same camera (union-find).
+    // every seed is a chart. Merge adjacent charts with the same label (union-find).
     let n = seeds.len();
     let mut parent: Vec<u32> = (0..n as u32).collect();
     fn find(p: &mut [u32], mut x: u32) -> u32 {
@@ -276,20 +344,20 @@ pub fn partition(
     }
     // Dense ids in order of first face, so chart numbering follows the input order.
     let mut dense = vec![NONE; n];
-    let mut chart_camera = Vec::new();
+    let mut chart_label = Vec::new();
     let mut face_chart = vec![NONE; nf];
-    let mut distortion = 0.0;
+    let mut total = 0.0;
     for f in 0..nf {
         if chart[f] == NONE {
             continue;
         }
         let r = find(&mut parent, chart[f]) as usize;
         if dense[r] == NONE {
-            dense[r] = chart_camera.len() as u32;
-            chart_camera.push(seeds[r].1);
+            dense[r] = chart_label.len() as u32;
+            chart_label.push(seeds[r].1);
         }
         face_chart[f] = dense[r];
-        distortion += cost(f, seeds[r].1);
+        total += cost(f, seeds[r].1);
     }
-    Partition { face_chart, chart_camera, rounds, charts_before_merge: n, distortion }
+    Flooded { face_chart, chart_label, rounds, charts_before_merge: n, cost: total }
 }

@@ -10,8 +10,11 @@ use std::time::Instant;
 use super::PipelineError;
 use super::convert::output_sheet_path;
 use crate::build::cameras::PhotoCamera;
-use crate::build::partition::{FaceGeom, NONE, face_adjacency, partition};
+use crate::build::frequency::{self, FrequencyOptions};
+use crate::build::partition::{FaceGeom, NONE, Partition, face_adjacency, partition};
+use crate::build::pyramid::{MAX_LEVELS, level_size, reduce_store, to_level};
 use crate::build::smoothing::{self, ChartGrid, Rgb};
+use crate::build::split::{Split, SplitInput, split_charts};
 use crate::build::visibility::{self, VisibilityOptions};
 use crate::build::{BuildError, read_rig};
 use crate::index::{MaterialId, UvId};
@@ -36,7 +39,10 @@ pub struct BuildConfig {
     /// Output sheet side limit; `None` = the largest photo.
     pub max_sheet_size: Option<u32>,
     pub smoothing: bool,
+    /// Frequency analysis and frequency-based chart splitting (paper §4); off = every chart is
+    /// textured at full resolution, exactly as without the analysis.
     pub frequency_split: bool,
+    pub frequency: FrequencyOptions,
     /// Free texels around each chart (the paper's 1-texel border, doubled for bilinear mips).
     pub padding: u32,
     pub visibility: VisibilityOptions,
@@ -55,6 +61,7 @@ impl Default for BuildConfig {
             max_sheet_size: None,
             smoothing: true,
             frequency_split: true,
+            frequency: FrequencyOptions::default(),
             padding: 2,
             visibility: VisibilityOptions::default(),
             max_rounds: 12,
@@ -70,6 +77,10 @@ pub struct BuildTimes {
     pub load_ms: f64,
     pub visibility_ms: f64,
     pub partition_ms: f64,
+    /// Decoding the photos that texture some chart into tile files.
+    pub decode_ms: f64,
+    /// Frequency analysis, level smoothing and splitting.
+    pub frequency_ms: f64,
     pub parametrize_ms: f64,
     pub pack_ms: f64,
     pub texture_ms: f64,
@@ -108,18 +119,52 @@ pub struct BuildReport {
     pub texels: u64,
     pub sheet_sizes: Vec<(u32, u32)>,
     pub sheets: Vec<PathBuf>,
-    /// Mean absolute colour difference (8-bit units, mean of RGB) across chart frontiers,
-    /// sampled just inside both faces of each frontier edge.
+    /// Mean absolute colour difference (8-bit units, mean of RGB) across photo seams (chart
+    /// frontiers between different photos), sampled just inside both faces of each edge.
     pub seam_jump_before: f64,
     pub seam_jump_after: f64,
+    /// Photo seams (edges between faces textured from different photos).
     pub frontier_edges: usize,
     pub smoothing: bool,
     pub smoothing_sweeps: u64,
-    /// Frequency-based splitting is not implemented yet; always false.
+    /// Whether the frequency-based splitting ran (see `frequency`).
     pub frequency_split: bool,
+    pub frequency: Option<FrequencyReport>,
     pub pack: Option<PackReport>,
     pub resample: Option<ResampleReport>,
     pub times: BuildTimes,
+}
+
+/// Figures of the frequency analysis and splitting (paper §4).
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct FrequencyReport {
+    pub options: FrequencyOptions,
+    /// Faces per pyramid level (index = level, 0 = full resolution): as detected from the
+    /// Laplacian pyramids (§4.1), after the greedy smoothing, and as textured (the level of the
+    /// face's sub-chart, never coarser than the smoothed level).
+    pub faces_per_level_detected: Vec<usize>,
+    pub faces_per_level_smoothed: Vec<usize>,
+    pub faces_per_level: Vec<usize>,
+    /// Edges between faces of one chart at different levels, before and after smoothing.
+    pub level_changes_detected: usize,
+    pub level_changes_smoothed: usize,
+    pub smoothing_passes: u32,
+    pub smoothing_switches: usize,
+    /// Sub-charts (what is packed), and before the per-chart merging.
+    pub sub_charts: usize,
+    pub sub_charts_before_merge: usize,
+    /// Charts left whole (at their finest level) because splitting would not have saved texels.
+    pub charts_kept_whole: usize,
+    /// Padded bounding rectangles of the charts at full resolution and of the sub-charts at
+    /// their levels, in texels: the estimate of the saving before packing (the packed result is
+    /// the report's `texels`).
+    pub rect_texels_before: u64,
+    pub rect_texels_after: u64,
+    pub texels_saved: i64,
+    /// Input sheets of coarser pyramid levels built for texturing.
+    pub level_sheets: usize,
+    pub analysis_ms: f64,
+    pub split_ms: f64,
 }
 
 fn ms(t: Instant) -> f64 {
@@ -191,15 +236,109 @@ pub fn build(
     let part = partition(&geom, &adj, &vis, &rig.cameras, cfg.max_rounds);
     times.partition_ms = ms(t);
 
-    // Projective parametrization: one UV vertex per (chart, mesh vertex), at the vertex's
-    // projection (with lens distortion) into the chart's photo, in that photo's texel space.
+    // Decode the photos that texture some chart into tile files (memory-mapped, so hundreds
+    // of large photos cost disk and page cache, not heap). Unused photos get a 1×1 placeholder
+    // so sheet indices stay camera indices.
     let t = Instant::now();
     let nf = tris.len();
     let n_cams = rig.cameras.len();
     let n_charts = part.chart_camera.len();
-    let unseen: Vec<usize> = (0..nf).filter(|&f| part.face_chart[f] == NONE).collect();
-    let fill_chart = n_charts as u32;
+    let out_dir = match output.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    super::create_dir(&out_dir)?;
+    let work_dir = cfg.work_dir.clone().unwrap_or_else(|| out_dir.clone());
+    super::create_dir(&work_dir)?;
+    let used: Vec<bool> = {
+        let mut u = vec![false; n_cams];
+        for &c in &part.chart_camera {
+            u[c as usize] = true;
+        }
+        u
+    };
+    let first_used = used.iter().position(|&u| u);
+    let format = match first_used {
+        Some(k) => {
+            decode::decode_to_store(&ImageSource::File(photo_paths[k].clone()), &work_dir)?.format()
+        }
+        None => crate::texture::PixelFormat::RGB8,
+    };
+    let mut photos: Vec<TileStore> = Vec::with_capacity(n_cams + 1);
+    for (k, p) in photo_paths.iter().enumerate() {
+        photos.push(if used[k] {
+            decode::decode_to_store(&ImageSource::File(p.clone()), &work_dir)?
+        } else {
+            TileStore::create(&work_dir, 1, 1, format)?
+        });
+    }
+    times.decode_ms = ms(t);
+
+    // Level-0 projection (with lens distortion) of every seen face's corners into its chart's
+    // photo, in that photo's texel space.
+    let mut uv0 = vec![[0.0; 2]; 3 * nf];
+    for f in 0..nf {
+        let c = part.face_chart[f];
+        if c == NONE {
+            continue;
+        }
+        let cam = &rig.cameras[part.chart_camera[c as usize] as usize];
+        for k in 0..3 {
+            uv0[3 * f + k] =
+                cam.project_texel(positions[tris[f][k] as usize]).unwrap_or([0.0, 0.0]);
+        }
+    }
+
+    // Frequency analysis and splitting (§4): sub-charts linked to (photo, pyramid level).
+    // Without it every chart is its own sub-chart at level 0.
+    let t = Instant::now();
+    let (sub, freq) = if cfg.frequency_split {
+        let (s, r) = frequency_split(&part, &rig.cameras, &photos, &uv0, &adj, &geom, cfg);
+        (s, Some(r))
+    } else {
+        let s = Split {
+            face_sub: part.face_chart.clone(),
+            sub_chart: (0..n_charts as u32).collect(),
+            sub_level: vec![0; n_charts],
+            before_merge: n_charts,
+            ..Split::default()
+        };
+        (s, None)
+    };
+    times.frequency_ms = ms(t);
+    let n_subs = sub.sub_chart.len();
+    let sub_camera: Vec<u32> =
+        sub.sub_chart.iter().map(|&c| part.chart_camera[c as usize]).collect();
+    // Input sheets: the photos, the fill sheet, then one sheet per (photo, level ≥ 1) in use.
     let fill_sheet = n_cams as u32;
+    let mut level_sheet = vec![[NONE; MAX_LEVELS]; n_cams];
+    let mut level_list: Vec<(u32, usize)> = Vec::new();
+    for (s, &cam) in sub_camera.iter().enumerate() {
+        let l = usize::from(sub.sub_level[s]);
+        if l == 0 {
+            level_sheet[cam as usize][0] = cam;
+        } else if level_sheet[cam as usize][l] == NONE {
+            level_sheet[cam as usize][l] = 0;
+            level_list.push((cam, l));
+        }
+    }
+    level_list.sort_unstable();
+    for (j, &(cam, l)) in level_list.iter().enumerate() {
+        level_sheet[cam as usize][l] = fill_sheet + 1 + j as u32;
+    }
+    let sub_sheet: Vec<u32> = (0..n_subs)
+        .map(|s| {
+            let (cam, l) = (sub_camera[s] as usize, usize::from(sub.sub_level[s]));
+            if l == 0 { cam as u32 } else { level_sheet[cam][l] }
+        })
+        .collect();
+
+    // Projective parametrization: one UV vertex per (sub-chart, mesh vertex), at the vertex's
+    // projection into the sub-chart's photo scaled to its pyramid level, in the texel space of
+    // that level.
+    let t = Instant::now();
+    let unseen: Vec<usize> = (0..nf).filter(|&f| part.face_chart[f] == NONE).collect();
+    let fill_chart = n_subs as u32;
     let mut corner_vert = vec![0u32; 3 * nf];
     let mut vert_uv: Vec<[f64; 2]> = Vec::new();
     let mut orig_uv = vec![[0.0; 2]; 3 * nf];
@@ -207,18 +346,18 @@ pub fn build(
     let mut face_sheet = vec![0u32; nf];
     let mut key: std::collections::HashMap<(u32, u32), u32> = std::collections::HashMap::new();
     for f in 0..nf {
-        let c = part.face_chart[f];
-        if c == NONE {
+        let s = sub.face_sub[f];
+        if s == NONE {
             continue;
         }
-        let cam_i = part.chart_camera[c as usize];
-        let cam = &rig.cameras[cam_i as usize];
-        face_chart[f] = c;
-        face_sheet[f] = cam_i;
+        let level = usize::from(sub.sub_level[s as usize]);
+        let h0 = rig.cameras[sub_camera[s as usize] as usize].intr.height;
+        face_chart[f] = s;
+        face_sheet[f] = sub_sheet[s as usize];
         for k in 0..3 {
             let v = tris[f][k];
-            let uv = cam.project_texel(positions[v as usize]).unwrap_or([0.0, 0.0]);
-            let id = *key.entry((c, v)).or_insert_with(|| {
+            let uv = to_level(uv0[3 * f + k], level, h0);
+            let id = *key.entry((s, v)).or_insert_with(|| {
                 vert_uv.push(uv);
                 (vert_uv.len() - 1) as u32
             });
@@ -231,7 +370,7 @@ pub fn build(
     const FILL: u32 = 4;
     let fill_tri = [[0.5, 0.5], [3.5, 0.5], [0.5, 3.5]];
     let fill_base = vert_uv.len() as u32;
-    let mut n_pack_charts = n_charts;
+    let mut n_pack_charts = n_subs;
     if !unseen.is_empty() {
         vert_uv.extend_from_slice(&fill_tri);
         n_pack_charts += 1;
@@ -253,6 +392,10 @@ pub fn build(
     let max_side = cfg
         .max_sheet_size
         .unwrap_or_else(|| in_sizes.iter().map(|s| s.0.max(s.1)).max().unwrap_or(1024));
+    for &(cam, l) in &level_list {
+        let c = &rig.cameras[cam as usize];
+        in_sizes.push(level_size(c.intr.width, c.intr.height, l));
+    }
     let area: Vec<f64> = geom.area.clone();
     let li = LayoutInput {
         corner_vert: &corner_vert,
@@ -272,38 +415,9 @@ pub fn build(
     let packed = pack_layout(&li, packer.as_ref(), &popts)?;
     times.pack_ms = ms(t);
 
-    // Texture: decode the photos that texture some chart into tile files, then resample.
+    // Texture: the pyramid levels sub-charts use (tile files, built from the decoded photos),
+    // then resampling.
     let t = Instant::now();
-    let out_dir = match output.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    super::create_dir(&out_dir)?;
-    let work_dir = cfg.work_dir.clone().unwrap_or_else(|| out_dir.clone());
-    super::create_dir(&work_dir)?;
-    let used: Vec<bool> = {
-        let mut u = vec![false; n_cams];
-        for &c in &part.chart_camera {
-            u[c as usize] = true;
-        }
-        u
-    };
-    // Unused photos get a 1×1 placeholder so sheet indices stay camera indices.
-    let first_used = used.iter().position(|&u| u);
-    let format = match first_used {
-        Some(k) => {
-            decode::decode_to_store(&ImageSource::File(photo_paths[k].clone()), &work_dir)?.format()
-        }
-        None => crate::texture::PixelFormat::RGB8,
-    };
-    let mut photos: Vec<TileStore> = Vec::with_capacity(n_cams + 1);
-    for (k, p) in photo_paths.iter().enumerate() {
-        photos.push(if used[k] {
-            decode::decode_to_store(&ImageSource::File(p.clone()), &work_dir)?
-        } else {
-            TileStore::create(&work_dir, 1, 1, format)?
-        });
-    }
     let fill_color = fill_colour(
         &unseen,
         &adj,
@@ -320,6 +434,21 @@ pub fn build(
         }
     }
     photos.push(fill);
+    let mut j = 0;
+    while j < level_list.len() {
+        // All levels of one photo in one cascade, keeping only those in use.
+        let cam = level_list[j].0;
+        let mut wanted = [false; MAX_LEVELS];
+        let mut k = j;
+        while k < level_list.len() && level_list[k].0 == cam {
+            wanted[level_list[k].1] = true;
+            k += 1;
+        }
+        for store in gaussian_levels(&photos[cam as usize], &wanted, &work_dir)? {
+            photos.push(store);
+        }
+        j = k;
+    }
     let mappings: Vec<FaceMapping> = (0..nf)
         .map(|f| {
             let chart = face_chart[f] as usize;
@@ -340,16 +469,31 @@ pub fn build(
 
     let t = Instant::now();
     let out_uv = |f: usize, k: usize| packed.vert_uv[corner_vert[3 * f + k] as usize];
-    let seams = frontier_edges(&tris, &adj, &part.face_chart);
-    let seam_jump_before = seam_jump(&seams, &tris, &packed.face_sheet, &out_uv, &res.sheets);
+    // Frontiers between sub-charts: with splitting, a level change inside a chart is a seam
+    // too, and smoothing evens out the small colour step it makes.
+    let seams = frontier_edges(&tris, &adj, &sub.face_sub);
+    // The colour jump is measured across photo seams only: a level change inside a chart is
+    // no lighting seam (and without splitting every frontier is a photo seam, since adjacent
+    // charts of one photo are merged).
+    let photo_seams: Vec<Seam> = seams
+        .iter()
+        .copied()
+        .filter(|sm| {
+            let cam = |f: u32| sub_camera[sub.face_sub[f as usize] as usize];
+            cam(sm.f) != cam(sm.g)
+        })
+        .collect();
+    let seam_jump_before = seam_jump(&photo_seams, &tris, &packed.face_sheet, &out_uv, &res.sheets);
     let mut sweeps = 0u64;
     if cfg.smoothing && !seams.is_empty() {
         sweeps = smooth(
             &seams,
             &tris,
             positions,
-            &part.face_chart,
-            &part.chart_camera,
+            &sub.face_sub,
+            &sub_camera,
+            &sub_sheet,
+            &sub.sub_level,
             &rig.cameras,
             &photos,
             &packed.face_sheet,
@@ -357,7 +501,7 @@ pub fn build(
             &mut res.sheets,
         );
     }
-    let seam_jump_after = seam_jump(&seams, &tris, &packed.face_sheet, &out_uv, &res.sheets);
+    let seam_jump_after = seam_jump(&photo_seams, &tris, &packed.face_sheet, &out_uv, &res.sheets);
     times.smoothing_ms = ms(t);
     drop(refs);
     drop(photos);
@@ -439,14 +583,138 @@ pub fn build(
         sheets: sheet_paths,
         seam_jump_before,
         seam_jump_after,
-        frontier_edges: seams.len(),
+        frontier_edges: photo_seams.len(),
         smoothing: cfg.smoothing,
         smoothing_sweeps: sweeps,
-        frequency_split: false,
+        frequency_split: freq.is_some(),
+        frequency: freq,
         pack: Some(packed.report.clone()),
         resample: Some(res.report.clone()),
         times,
     })
+}
+
+/// Faces per level.
+fn histogram(levels: impl Iterator<Item = u8>) -> Vec<usize> {
+    let mut h = vec![0usize; MAX_LEVELS];
+    for l in levels {
+        h[usize::from(l)] += 1;
+    }
+    while h.len() > 1 && h.last() == Some(&0) {
+        h.pop();
+    }
+    h
+}
+
+/// The frequency analysis (§4.1), greedy level smoothing and per-chart splitting (§4.2).
+#[allow(clippy::too_many_arguments)]
+fn frequency_split(
+    part: &Partition,
+    cams: &[PhotoCamera],
+    photos: &[TileStore],
+    uv0: &[[f64; 2]],
+    adj: &[[u32; 3]],
+    geom: &FaceGeom,
+    cfg: &BuildConfig,
+) -> (Split, FrequencyReport) {
+    let t = Instant::now();
+    let o = &cfg.frequency;
+    let nf = part.face_chart.len();
+    let face_photo: Vec<u32> = part
+        .face_chart
+        .iter()
+        .map(|&c| if c == NONE { NONE } else { part.chart_camera[c as usize] })
+        .collect();
+    let detail = frequency::detail_content(photos, &face_photo, uv0);
+    let mut levels: Vec<u8> = (0..nf)
+        .map(|f| {
+            if face_photo[f] == NONE {
+                0
+            } else {
+                frequency::assign_level(&detail.d[f][..usize::from(detail.n_bands[f])], o)
+            }
+        })
+        .collect();
+    let seen = |f: &usize| part.face_chart[*f] != NONE;
+    let faces_per_level_detected = histogram((0..nf).filter(seen).map(|f| levels[f]));
+    let level_changes_detected = frequency::level_changes(&levels, adj, &part.face_chart);
+    let (smoothing_passes, smoothing_switches) =
+        frequency::smooth_levels(&mut levels, adj, &part.face_chart, o.smoothing_passes);
+    let faces_per_level_smoothed = histogram((0..nf).filter(seen).map(|f| levels[f]));
+    let level_changes_smoothed = frequency::level_changes(&levels, adj, &part.face_chart);
+    let analysis_ms = ms(t);
+    let t = Instant::now();
+    let chart_height: Vec<u32> =
+        part.chart_camera.iter().map(|&c| cams[c as usize].intr.height).collect();
+    let split = split_charts(&SplitInput {
+        face_chart: &part.face_chart,
+        n_charts: part.chart_camera.len(),
+        level: &levels,
+        adj,
+        area: &geom.area,
+        uv0,
+        chart_height: &chart_height,
+        padding: cfg.padding.max(1),
+        max_rounds: cfg.max_rounds,
+    });
+    let faces_per_level =
+        histogram((0..nf).filter(seen).map(|f| split.sub_level[split.face_sub[f] as usize]));
+    let mut sheets: Vec<(u32, u8)> = split
+        .sub_chart
+        .iter()
+        .zip(&split.sub_level)
+        .filter(|&(_, &l)| l > 0)
+        .map(|(&c, &l)| (part.chart_camera[c as usize], l))
+        .collect();
+    sheets.sort_unstable();
+    sheets.dedup();
+    let report = FrequencyReport {
+        options: o.clone(),
+        faces_per_level_detected,
+        faces_per_level_smoothed,
+        faces_per_level,
+        level_changes_detected,
+        level_changes_smoothed,
+        smoothing_passes,
+        smoothing_switches,
+        sub_charts: split.sub_chart.len(),
+        sub_charts_before_merge: split.before_merge,
+        charts_kept_whole: split.kept_whole,
+        rect_texels_before: split.rect_texels_before,
+        rect_texels_after: split.rect_texels_after,
+        texels_saved: split.rect_texels_before as i64 - split.rect_texels_after as i64,
+        level_sheets: sheets.len(),
+        analysis_ms,
+        split_ms: ms(t),
+    };
+    (split, report)
+}
+
+/// The Gaussian levels `l` of a photo with `wanted[l]` (l ≥ 1), finest first, by repeated
+/// [`reduce_store`]; a level on the way that is not wanted is dropped once the next one exists.
+fn gaussian_levels(
+    photo: &TileStore,
+    wanted: &[bool; MAX_LEVELS],
+    work_dir: &Path,
+) -> Result<Vec<TileStore>, PipelineError> {
+    let top = wanted.iter().rposition(|&w| w).unwrap_or(0);
+    let mut out: Vec<TileStore> = Vec::new();
+    // The last level built when it is not wanted; otherwise it is `out`'s last.
+    let mut scratch: Option<TileStore> = None;
+    for &want in wanted.iter().take(top + 1).skip(1) {
+        let next = match (&scratch, out.last()) {
+            (Some(s), _) => reduce_store(s, work_dir)?,
+            (None, Some(o)) => reduce_store(o, work_dir)?,
+            (None, None) => reduce_store(photo, work_dir)?,
+        };
+        if want {
+            out.push(next);
+            scratch = None;
+        } else {
+            scratch = Some(next);
+        }
+    }
+    Ok(out)
 }
 
 /// The fill colour of unseen faces: the mean photo colour at the centroids of their seen
@@ -557,7 +825,9 @@ fn seam_jump(
     if n > 0.0 { sum / n } else { 0.0 }
 }
 
-/// Colour smoothing (see [`smoothing`]). Returns the relaxation sweeps run.
+/// Colour smoothing (see [`smoothing`]) of the (sub-)charts `face_chart`, each textured from
+/// input sheet `chart_sheet` (its camera's photo at pyramid level `chart_level`). Returns the
+/// relaxation sweeps run.
 #[allow(clippy::too_many_arguments)]
 fn smooth(
     seams: &[Seam],
@@ -565,6 +835,8 @@ fn smooth(
     positions: &[[f64; 3]],
     face_chart: &[u32],
     chart_camera: &[u32],
+    chart_sheet: &[u32],
+    chart_level: &[u8],
     cams: &[PhotoCamera],
     photos: &[TileStore],
     face_sheet: &[u32],
@@ -625,10 +897,16 @@ fn smooth(
             });
         }
         // Correction factors along the chart's frontier edges: half the difference between the
-        // neighbour's photo and this chart's own texture at the same surface point.
+        // neighbour's photo (at the neighbour's pyramid level) and this chart's own texture at
+        // the same surface point.
         for &(f, k, g) in &sides[c] {
             let (f, k) = (f as usize, k as usize);
-            let other = chart_camera[face_chart[g as usize] as usize] as usize;
+            let gc = face_chart[g as usize] as usize;
+            let other = chart_camera[gc] as usize;
+            // Sub-charts of one photo (a level change inside a split chart) share its lighting:
+            // the correction there is pinned to zero on both sides, so corrections coming from
+            // other photos fade out towards such a frontier instead of stepping across it.
+            let same_photo = other == chart_camera[c] as usize;
             let uv = [0, 1, 2].map(|q| out_uv(f, q));
             let (pa, pb) =
                 (positions[tris[f][k] as usize], positions[tris[f][(k + 1) % 3] as usize]);
@@ -640,10 +918,15 @@ fn smooth(
                 let t = (f64::from(s) + 0.5) / f64::from(steps + 1);
                 let q = inside_point(uv, k, t);
                 let x = [0, 1, 2].map(|d| pa[d] + t * (pb[d] - pa[d]));
-                let Some(po) = cams[other].project_texel(x) else { continue };
-                let mine = smoothing::sample(store, q);
-                let theirs = smoothing::sample(&photos[other], po);
-                let corr = [0, 1, 2].map(|d| 0.5 * (theirs[d] - mine[d]));
+                let corr = if same_photo {
+                    [0.0; 3]
+                } else {
+                    let Some(po) = cams[other].project_texel(x) else { continue };
+                    let po = to_level(po, usize::from(chart_level[gc]), cams[other].intr.height);
+                    let mine = smoothing::sample(store, q);
+                    let theirs = smoothing::sample(&photos[chart_sheet[gc] as usize], po);
+                    [0, 1, 2].map(|d| 0.5 * (theirs[d] - mine[d]))
+                };
                 let (px, py) = (q[0].floor(), (f64::from(h) - q[1]).floor());
                 if px >= 0.0 && py >= 0.0 && px < f64::from(w) && py < f64::from(h) {
                     grid.add(px as u32, py as u32, corr);

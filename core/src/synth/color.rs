@@ -131,6 +131,43 @@ fn palette(t: f64) -> [f64; 3] {
 /// The procedural ground-truth colour of surface point `p`, linear RGB in `[0, 1]`.
 /// Deterministic and pure: the same point always has the same colour.
 pub fn true_color(p: [f64; 3]) -> [f64; 3] {
+    color_with_detail(p, 1.0)
+}
+
+/// Wavelength (model units) of the field that decides where [`patchy_color`] is smooth.
+const PATCH_WAVELENGTH: f64 = 1.25;
+/// Width of the ramp between detailed and smooth patches, in units of that field.
+const PATCH_RAMP: f64 = 0.1;
+
+/// The weight of the detail octaves (2 to 5) at `p` when about a fraction `smooth` of the
+/// surface is to be smooth: 0 in the smooth patches, 1 elsewhere, a short ramp between. The
+/// patches follow a low-frequency field (two plane waves of wavelength [`PATCH_WAVELENGTH`]);
+/// the fraction is that of a single sine's level set, so only approximate.
+pub fn detail_weight(p: [f64; 3], smooth: f64) -> f64 {
+    if smooth <= 0.0 {
+        return 1.0;
+    }
+    let w = waves();
+    let s = WARP_WAVELENGTH / PATCH_WAVELENGTH;
+    let q = [p[0] * s, p[1] * s, p[2] * s];
+    let field = 0.5 * (w.warp[0].eval(q) + w.warp[1].eval(q));
+    let t = 0.5 * sin(std::f64::consts::PI * (smooth.min(1.0) - 0.5));
+    let x = ((field - t) / (2.0 * PATCH_RAMP) + 0.5).clamp(0.0, 1.0);
+    x * x * (3.0 - 2.0 * x)
+}
+
+/// [`true_color`] with smooth patches: the detail octaves (wavelengths 0.1 and below) faded out
+/// over about a fraction `smooth` of the surface ([`detail_weight`]), leaving only the palette
+/// octaves of wavelength 0.3 and 0.9 there. A capture of such a surface has regions a coarse
+/// pyramid level textures as well as the photo, as real scans of plaster, skin or sky have.
+/// `smooth = 0` is exactly [`true_color`].
+pub fn patchy_color(p: [f64; 3], smooth: f64) -> [f64; 3] {
+    color_with_detail(p, detail_weight(p, smooth))
+}
+
+/// The colour with the detail octaves weighted by `m` (1 = [`true_color`], bit for bit, since
+/// multiplying by one is exact).
+fn color_with_detail(p: [f64; 3], m: f64) -> [f64; 3] {
     let w = waves();
     let q = [
         p[0] + WARP_AMPLITUDE * w.warp[0].eval(p),
@@ -138,8 +175,8 @@ pub fn true_color(p: [f64; 3]) -> [f64; 3] {
         p[2] + WARP_AMPLITUDE * w.warp[2].eval(p),
     ];
     let oct = |o: usize, x: [f64; 3]| 0.5 * (w.octaves[o][0].eval(x) + w.octaves[o][1].eval(x));
-    let (s0, s1, s2) = (oct(0, q), oct(1, q), oct(2, q));
-    let (s3, s4, s5) = (oct(3, p), oct(4, p), oct(5, p));
+    let (s0, s1, s2) = (oct(0, q), oct(1, q), oct(2, q) * m);
+    let (s3, s4, s5) = (oct(3, p) * m, oct(4, p) * m, oct(5, p) * m);
     let base = palette(0.5 + 0.38 * s0 + 0.17 * s1);
     let detail = (0.5 * s2 + 0.35 * s3 + 0.25 * s4 + 0.18 * s5) / 1.28;
     let lum = 0.74 + 0.26 * detail;

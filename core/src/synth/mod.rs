@@ -29,7 +29,9 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-pub use color::{OCTAVE_WAVELENGTHS, linear_to_srgb8, srgb8_to_linear, true_color};
+pub use color::{
+    OCTAVE_WAVELENGTHS, detail_weight, linear_to_srgb8, patchy_color, srgb8_to_linear, true_color,
+};
 
 use crate::index::{MaterialId, SheetId, UvId, VertexId};
 use crate::model::{Face, ImageSource, Material, Model, Sheet};

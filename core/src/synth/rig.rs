@@ -6,7 +6,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::color::{linear_to_srgb8, srgb8_to_linear, true_color};
+use super::color::{linear_to_srgb8, patchy_color, srgb8_to_linear, true_color};
 use super::{Shape, cameras, mesh};
 use crate::build::cameras::{Distortion, Intrinsics, PhotoCamera, Rig};
 use crate::index::VertexId;
@@ -26,6 +26,9 @@ pub struct RigParams {
     pub gain_spread: f64,
     /// Radial distortion k1 of every other photo (0 = none).
     pub k1: f64,
+    /// About this fraction of the surface has no detail finer than the palette octaves
+    /// ([`patchy_color`]); 0 = the plain [`true_color`] everywhere.
+    pub smooth_regions: f64,
     pub seed: u64,
 }
 
@@ -39,6 +42,7 @@ impl Default for RigParams {
             height: 480,
             gain_spread: 0.12,
             k1: -0.04,
+            smooth_regions: 0.0,
             seed: 1,
         }
     }
@@ -97,11 +101,20 @@ pub fn rig_cameras(p: &RigParams, m: &mesh::Mesh) -> Vec<PhotoCamera> {
         .collect()
 }
 
-/// Renders one photo: z-buffered, perspective-correct true colour times `gain`, black background.
+impl RigParams {
+    /// The true colour of the rig's surface at `p`.
+    pub fn color(&self, p: [f64; 3]) -> [f64; 3] {
+        if self.smooth_regions > 0.0 { patchy_color(p, self.smooth_regions) } else { true_color(p) }
+    }
+}
+
+/// Renders one photo: z-buffered, perspective-correct true colour (`color`) times `gain`, black
+/// background.
 pub fn render(
     m: &mesh::Mesh,
     cam: &PhotoCamera,
     gain: [f64; 3],
+    color: &(dyn Fn([f64; 3]) -> [f64; 3] + Sync),
     work: &Path,
 ) -> Result<TileStore, crate::texture::TextureError> {
     let (w, h) = (cam.intr.width, cam.intr.height);
@@ -157,7 +170,7 @@ pub fn render(
                     + b[1] * m.positions[t[1] as usize][k]
                     + b[2] * m.positions[t[2] as usize][k]
             });
-            let c = true_color(p);
+            let c = color(p);
             let px = store.pixel_mut(i, j);
             for k in 0..3 {
                 px[k] = linear_to_srgb8(c[k] * gain[k]);
@@ -172,6 +185,9 @@ pub fn render(
 pub fn generate_rig(p: &RigParams, out: &Path) -> Result<RigOutput, super::SynthError> {
     if p.photos == 0 || p.width < 16 || p.height < 16 || !(100..=5_000_000).contains(&p.faces) {
         return Err(err("need at least 1 photo of 16x16 pixels and 100 to 5000000 faces"));
+    }
+    if !(0.0..=1.0).contains(&p.smooth_regions) {
+        return Err(err("the smooth fraction of the surface must be between 0 and 1"));
     }
     let m = mesh::build(p.shape, p.faces, p.seed);
     let cams = rig_cameras(p, &m);
@@ -197,7 +213,7 @@ pub fn generate_rig(p: &RigParams, out: &Path) -> Result<RigOutput, super::Synth
         cams.par_iter()
             .zip(&gains)
             .map(|(c, &g)| {
-                let s = render(&m, c, g, out).map_err(err)?;
+                let s = render(&m, c, g, &|x| p.color(x), out).map_err(err)?;
                 crate::texture::encode::write_image(&s, &images.join(&c.image), &Default::default())
                     .map_err(err)
             })
@@ -234,6 +250,17 @@ pub fn generate_rig(p: &RigParams, out: &Path) -> Result<RigOutput, super::Synth
 /// PSNR (dB, 8-bit sRGB) of a textured model against the true colour, over every texel centre
 /// inside a face's UV triangle, skipping the faces listed in `skip`; also the texel count.
 pub fn texture_psnr(model: &Model, sheets: &[TileStore], skip: &[bool]) -> (f64, u64) {
+    texture_psnr_with(model, sheets, skip, &true_color)
+}
+
+/// [`texture_psnr`] against any true colour, e.g. [`RigParams::color`] of a rig with smooth
+/// regions.
+pub fn texture_psnr_with(
+    model: &Model,
+    sheets: &[TileStore],
+    skip: &[bool],
+    color: &dyn Fn([f64; 3]) -> [f64; 3],
+) -> (f64, u64) {
     let mut se = 0.0;
     let mut n = 0u64;
     for (f, face) in model.faces.iter().enumerate() {
@@ -251,7 +278,7 @@ pub fn texture_psnr(model: &Model, sheets: &[TileStore], skip: &[bool]) -> (f64,
         let p = face.v.map(|v| model.positions[v.idx()]);
         rasterize_triangle(tri, h, PixelRect::new(0, 0, w, h), |i, j, b| {
             let x = [0, 1, 2].map(|k| b[0] * p[0][k] + b[1] * p[1][k] + b[2] * p[2][k]);
-            let c = true_color(x);
+            let c = color(x);
             let px = st.pixel(i, j);
             for k in 0..3 {
                 let d = f64::from(px[k]) - f64::from(linear_to_srgb8(c[k]));

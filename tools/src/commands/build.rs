@@ -29,6 +29,12 @@ pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
         .with_context(|| format!("writing {}", p.display()))?;
     }
     if !quiet {
+        if let Some(fr) = &report.frequency {
+            eprintln!(
+                "frequency split: {} sub-charts from {} charts, faces per level {:?}, texels saved (padded rectangles) {}",
+                fr.sub_charts, report.charts, fr.faces_per_level, fr.texels_saved
+            );
+        }
         eprintln!(
             "wrote {} ({} faces, {} unseen, {} charts, {} sheets, {} texels): packing {:.0}%, stretch {:.0}%, seam jump {:.2} -> {:.2}, {:.1} s",
             args.output.display(),

@@ -18,6 +18,7 @@ pub fn run(args: &SynthRigArgs, quiet: bool) -> Result<()> {
         photos: args.photos,
         width: args.width,
         height: args.height,
+        smooth_regions: args.smooth_regions,
         seed: args.seed,
         ..RigParams::default()
     };
