@@ -204,10 +204,11 @@ pub fn defrag_with_progress(
     let mut merge_opts = cfg.merge.clone();
     if merge_opts.max_chart_extent == 0.0 {
         // No merge may make a chart that cannot go on an output sheet (the shorter side, so
-        // that it fits however the packer turns it), padding included.
+        // that it fits however the packer turns it), padding included, and two texels more on
+        // each side for the packer's conservative raster of the footprint.
         let sizes: Vec<(u32, u32)> = in_sizes.iter().map(|s| s.unwrap_or((1, 1))).collect();
         let (w, h) = max_sheet_size(&cfg.pack, &sizes);
-        let side = f64::from(w.min(h)) - 2.0 * f64::from(cfg.pack.padding);
+        let side = f64::from(w.min(h)) - 2.0 * f64::from(cfg.pack.padding) - 4.0;
         merge_opts.max_chart_extent = side.max(1.0);
     }
     let (merge, layout) = merge_charts_parallel(&mut topo, scorer.as_ref(), solvers, &merge_opts)?;
