@@ -425,20 +425,7 @@ impl Engine<'_> {
         for (i, &v) in self.local_verts.iter().enumerate() {
             self.log.pos.set(&mut self.t.uv_pos, v as usize, self.start_uv[i]);
         }
-        for &v in &self.free {
-            self.vert_budget[v as usize] = f64::NAN;
-        }
-        for &f in &self.opt_faces {
-            self.face_opt[f as usize] = false;
-        }
-        for &v in &self.local_verts {
-            self.vert_local[v as usize] = NONE;
-        }
-        self.local_verts.clear();
-        for &v in &self.frozen_list {
-            self.vert_frozen[v as usize] = false;
-        }
-        self.frozen_list.clear();
+        self.clear_patch_marks();
         let step = (g.len_a + g.len_b) / (2.0 * self.pairs.len().max(1) as f64);
         for s in &mut self.seeds {
             s.1 = 2.0 * s.1 + if step.is_finite() { step } else { 0.0 };
@@ -560,6 +547,13 @@ impl Engine<'_> {
 
     /// Clears the per-attempt marks.
     fn reset_scratch(&mut self) {
+        self.clear_patch_marks();
+        self.maybe_compact_grid();
+    }
+
+    /// Clears the marks of the optimization area: budgets, patch faces, local and frozen
+    /// vertices.
+    fn clear_patch_marks(&mut self) {
         for &v in &self.free {
             self.vert_budget[v as usize] = f64::NAN;
         }
@@ -574,6 +568,5 @@ impl Engine<'_> {
         }
         self.frozen_list.clear();
         self.local_verts.clear();
-        self.maybe_compact_grid();
     }
 }

@@ -350,19 +350,29 @@ pub fn pack_layout(
         let (mut rigid, chart_area) = rigid_faces(input, fs, opts);
         let min_area = opts.anchor_min_fraction * chart_area;
         let best = best_group(&mut rigid, min_area);
-        let mut frame = None;
-        if let Some((anchor, group)) = &best {
-            claim_group(input, group, &mut claim, &mut face_preserved);
-            let f = chart_frame(
+        // The frame for one anchor group (claimed first) or for none, turned by `turn`.
+        let mut frame_for = |group: Option<&(Anchor, Vec<u32>)>,
+                             turn: FreeTurn,
+                             claim: &mut [[f64; 2]],
+                             preserved: &mut [bool]| {
+            if let Some((_, faces)) = group {
+                claim_group(input, faces, claim, preserved);
+            }
+            let anchor = group.map(|(a, _)| (a, &claim[..]));
+            chart_frame(
                 input,
                 c as u32,
                 vs,
-                Some((anchor, &claim[..])),
-                FreeTurn::MinArea,
+                anchor,
+                turn,
                 opts.padding,
                 &mut frame_uv,
                 &mut scratch,
-            )?;
+            )
+        };
+        let mut frame = None;
+        if best.is_some() {
+            let f = frame_for(best.as_ref(), FreeTurn::MinArea, &mut claim, &mut face_preserved)?;
             if fits(&f) {
                 frame = Some(f);
             } else {
@@ -374,19 +384,8 @@ pub fn pack_layout(
         // no anchor (minimum-area turn, then the merge frame, whose box the merge stage bounded),
         // and only then give it an oversized sheet with its heaviest anchor.
         if frame.is_none() && best.is_some() {
-            for (anchor, group) in ranked_groups(&mut rigid, min_area, ANCHOR_TRIES).iter().skip(1)
-            {
-                claim_group(input, group, &mut claim, &mut face_preserved);
-                let f = chart_frame(
-                    input,
-                    c as u32,
-                    vs,
-                    Some((anchor, &claim[..])),
-                    FreeTurn::MinArea,
-                    opts.padding,
-                    &mut frame_uv,
-                    &mut scratch,
-                )?;
+            for group in ranked_groups(&mut rigid, min_area, ANCHOR_TRIES).iter().skip(1) {
+                let f = frame_for(Some(group), FreeTurn::MinArea, &mut claim, &mut face_preserved)?;
                 if fits(&f) {
                     report.anchors_changed_to_fit += 1;
                     frame = Some(f);
@@ -397,16 +396,7 @@ pub fn pack_layout(
         }
         if frame.is_none() {
             for turn in [FreeTurn::MinArea, FreeTurn::AsMerged] {
-                let f = chart_frame(
-                    input,
-                    c as u32,
-                    vs,
-                    None,
-                    turn,
-                    opts.padding,
-                    &mut frame_uv,
-                    &mut scratch,
-                )?;
+                let f = frame_for(None, turn, &mut claim, &mut face_preserved)?;
                 if fits(&f) || (best.is_none() && turn == FreeTurn::AsMerged) {
                     report.anchors_dropped_to_fit += usize::from(best.is_some());
                     frame = Some(f);
@@ -414,31 +404,9 @@ pub fn pack_layout(
                 }
             }
         }
-        let frame = match (frame, &best) {
-            (Some(f), _) => f,
-            (None, Some((anchor, group))) => {
-                claim_group(input, group, &mut claim, &mut face_preserved);
-                chart_frame(
-                    input,
-                    c as u32,
-                    vs,
-                    Some((anchor, &claim[..])),
-                    FreeTurn::MinArea,
-                    opts.padding,
-                    &mut frame_uv,
-                    &mut scratch,
-                )?
-            }
-            (None, None) => chart_frame(
-                input,
-                c as u32,
-                vs,
-                None,
-                FreeTurn::AsMerged,
-                opts.padding,
-                &mut frame_uv,
-                &mut scratch,
-            )?,
+        let frame = match frame {
+            Some(f) => f,
+            None => frame_for(best.as_ref(), FreeTurn::AsMerged, &mut claim, &mut face_preserved)?,
         };
         report.anchored_charts += usize::from(frame.g0.is_some());
         *slot = Some(frame);
