@@ -2,8 +2,9 @@
 //! content of every face at every level of its photo's Laplacian pyramid, the pyramid level
 //! that still preserves it, and a pass that evens out isolated levels before splitting.
 //!
-//! Detail content `d_k(f)` is the largest `|L_k|` (luminance, full scale 1) over the texels the
-//! face covers at level `k` (its photo projection scaled by `2^-k`; at least the texel holding
+//! Detail content `d_k(f)` is the largest `|L_k|` over the red, green and blue pyramids (full
+//! scale 1; a luminance pyramid alone misses the edges between colours of equal brightness, which
+//! photographed surfaces have plenty of) over the texels the face covers at level `k` (its photo projection scaled by `2^-k`; at least the texel holding
 //! its centroid) and their immediate neighbours (a band-pass response is zero on the line of an
 //! edge itself). Following Mallat, the paper reads regularity from how `d_k` evolves across
 //! scales: the first level `k` at which it decays means level `k − 1` is the last to hold the
@@ -18,7 +19,7 @@ use crate::texture::TileStore;
 use crate::texture::coords::pixel_of_texel;
 use crate::texture::raster::{PixelRect, rasterize_triangle};
 
-/// Tuning of the frequency analysis. Luminance thresholds are in full-scale units (1 = white).
+/// Tuning of the frequency analysis. Thresholds are in full-scale units of a colour channel.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct FrequencyOptions {
     /// Detail content at or below this is sensor and quantization noise: it neither counts as
@@ -28,7 +29,7 @@ pub struct FrequencyOptions {
     /// so the jitter of a maximum over a few texels (sampling phase, noise) does not.
     pub decay: f64,
     /// Error budget: a face never gets a level `m` with `Σ_{j<m} d_j` above this, which bounds
-    /// the luminance lost by texturing it from `G_m` instead of the photo.
+    /// the colour lost by texturing it from `G_m` instead of the photo.
     pub budget: f64,
     /// Coarsest level assigned (at most [`MAX_LEVELS`] − 1).
     pub max_level: usize,
@@ -58,8 +59,9 @@ pub struct Detail {
 
 /// The detail content of every face `f` with `face_photo[f] != NONE`, from its photo's Laplacian
 /// pyramid; `uv0[3f + k]` is corner `k` projected into that photo (level-0 texel space).
-/// Photos are analysed one after another (each in parallel inside), so only one photo's pyramid
-/// is ever in memory; photos that texture no face are never read.
+/// Photos are analysed one after another, and each one channel after another (each in parallel
+/// inside), so only one channel pyramid of one photo is ever in memory; photos that texture no
+/// face are never read.
 pub fn detail_content(photos: &[TileStore], face_photo: &[u32], uv0: &[[f64; 2]]) -> Detail {
     let nf = face_photo.len();
     let mut out = Detail { d: vec![[0.0; MAX_LEVELS]; nf], n_bands: vec![0; nf] };
@@ -94,17 +96,20 @@ pub fn detail_content(photos: &[TileStore], face_photo: &[u32], uv0: &[[f64; 2]]
         if bands == 0 {
             continue;
         }
-        pyramid::luminance(photo, &mut g);
-        for k in 0..bands {
-            pyramid::reduce(&g, &mut next);
-            pyramid::laplacian_in_place(&mut g, &next);
-            fs.par_iter()
-                .map(|&f| face_max(&g, k, h0, &uv0[3 * f as usize..]))
-                .collect_into_vec(&mut vals);
-            for (&f, &v) in fs.iter().zip(&vals) {
-                out.d[f as usize][k] = v;
+        for c in 0..pyramid::colour_channels(photo.format()) {
+            pyramid::channel_plane(photo, c, &mut g);
+            for k in 0..bands {
+                pyramid::reduce(&g, &mut next);
+                pyramid::laplacian_in_place(&mut g, &next);
+                fs.par_iter()
+                    .map(|&f| face_max(&g, k, h0, &uv0[3 * f as usize..]))
+                    .collect_into_vec(&mut vals);
+                for (&f, &v) in fs.iter().zip(&vals) {
+                    let d = &mut out.d[f as usize][k];
+                    *d = d.max(v);
+                }
+                std::mem::swap(&mut g, &mut next);
             }
-            std::mem::swap(&mut g, &mut next);
         }
     }
     out

@@ -295,3 +295,37 @@ fn splitting_keeps_every_face_once_and_never_textures_a_face_coarser() {
     let s2 = split_charts(&SplitInput { level: &flat, ..inp });
     assert_eq!(s2.sub_level, vec![2, 2]);
 }
+
+#[test]
+fn a_gaussian_level_sampled_at_level_uvs_reproduces_a_linear_ramp() {
+    // The binomial filter keeps linear functions, so G_l of a ramp is the ramp sampled at the
+    // level's texel centres; a bilinear sample of G_l at `to_level(p)` must give the ramp at p.
+    let dir = tempfile::tempdir().unwrap();
+    let (w, h) = (256u32, 200u32);
+    let ramp = |x: f64, y: f64| 20.0 + 0.5 * x + 0.4 * y; // x, y: pixel coordinates
+    let mut s = TileStore::create(
+        dir.path(),
+        w,
+        h,
+        PixelFormat { channels: 1, sample: crate::texture::SampleType::F32 },
+    )
+    .unwrap();
+    for y in 0..h {
+        for x in 0..w {
+            let v = ramp(f64::from(x) + 0.5, f64::from(y) + 0.5) as f32;
+            s.pixel_mut(x, y).copy_from_slice(&v.to_ne_bytes());
+        }
+    }
+    let mut level = reduce_store(&s, dir.path()).unwrap();
+    for l in 1..=3 {
+        if l > 1 {
+            level = reduce_store(&level, dir.path()).unwrap();
+        }
+        for p in [[60.3, 70.9], [101.0, 150.5], [128.0, 100.0]] {
+            let q = to_level(p, l, h);
+            let got = crate::build::smoothing::sample(&level, q)[0];
+            let want = ramp(p[0], f64::from(h) - p[1]);
+            assert!((got - want).abs() < 1e-3, "level {l} at {p:?}: {got} vs {want}");
+        }
+    }
+}

@@ -5,9 +5,9 @@
 //! every second pixel (pixel `i` of level `k+1` is centred on pixel `2i` of level `k`, so a level
 //! is `ceil(W/2) × ceil(H/2)`). `L_k = G_k − EXPAND(G_{k+1})`, where EXPAND interpolates with the
 //! same filter (weights `1/8, 3/4, 1/8` on even pixels, `1/2, 1/2` on odd ones). Borders mirror
-//! without repeating the edge pixel. The analysis works on one `f32` luminance plane per photo,
-//! level by level, turning each `G_k` into `L_k` in place once `G_{k+1}` exists, so at most
-//! `1.25` planes of the photo are in memory at a time. The colour levels a sub-chart needs are
+//! without repeating the edge pixel. The analysis works on one `f32` plane of one colour channel
+//! of one photo at a time, level by level, turning each `G_k` into `L_k` in place once `G_{k+1}`
+//! exists, so at most `1.25` planes of the photo are in memory at a time. The colour levels a sub-chart needs are
 //! built by [`reduce_store`] from memory-mapped [`TileStore`]s, a band of rows at a time.
 
 use std::path::Path;
@@ -97,49 +97,38 @@ impl Plane {
     }
 }
 
-/// Rec. 709 luma weights.
-const LUMA: [f32; 3] = [0.2126, 0.7152, 0.0722];
+/// Colour channels a photo's analysis looks at: red, green and blue, or the one gray channel
+/// (alpha is never detail).
+pub fn colour_channels(f: PixelFormat) -> usize {
+    if f.channels >= 3 { 3 } else { 1 }
+}
 
-/// Converts one row of pixel bytes to luminance with full scale 1; `load(px, c)` reads sample
-/// `c` of a pixel in its own units. Inlined per sample type so the inner loop is plain
-/// arithmetic.
+/// Copies one channel of one row of pixel bytes into `out` with full scale 1; `load(px)` reads
+/// the sample in its own units. Inlined per sample type so the loop is plain arithmetic.
 #[inline(always)]
-fn luma_row(
-    row: &[u8],
-    channels: usize,
-    bpp: usize,
-    scale: f32,
-    load: impl Fn(&[u8], usize) -> f32,
-    out: &mut [f32],
-) {
+fn channel_row(row: &[u8], bpp: usize, scale: f32, load: impl Fn(&[u8]) -> f32, out: &mut [f32]) {
     for (v, px) in out.iter_mut().zip(row.chunks_exact(bpp)) {
-        *v = if channels >= 3 {
-            scale * (LUMA[0] * load(px, 0) + LUMA[1] * load(px, 1) + LUMA[2] * load(px, 2))
-        } else {
-            scale * load(px, 0)
-        };
+        *v = scale * load(px);
     }
 }
 
-/// The luminance plane of a photo (Rec. 709 weights on the stored, gamma-encoded values, which
-/// is what the eye compares; gray images are their own luminance; alpha is ignored).
-pub fn luminance(store: &TileStore, out: &mut Plane) {
+/// Channel `c` of a photo as a plane with full scale 1 (the stored, gamma-encoded values, which
+/// is what the eye compares).
+pub fn channel_plane(store: &TileStore, c: usize, out: &mut Plane) {
     let (w, h) = (store.width() as usize, store.height() as usize);
     let f = store.format();
-    let (ch, bpp) = (f.channels as usize, f.bytes_per_pixel());
+    let bpp = f.bytes_per_pixel();
     out.reshape(w, h);
     out.data.par_chunks_mut(w).enumerate().for_each_init(
         || vec![0u8; w * bpp],
         |row, (y, dst)| {
             store.read_row(y as u32, 0, row);
             match f.sample {
-                SampleType::U8 => {
-                    luma_row(row, ch, bpp, 1.0 / 255.0, |px, c| f32::from(px[c]), dst)
-                }
+                SampleType::U8 => channel_row(row, bpp, 1.0 / 255.0, |px| f32::from(px[c]), dst),
                 SampleType::U16 => {
-                    luma_row(row, ch, bpp, 1.0 / 65535.0, |px, c| load(px, c, f.sample), dst)
+                    channel_row(row, bpp, 1.0 / 65535.0, |px| load(px, c, f.sample), dst)
                 }
-                SampleType::F32 => luma_row(row, ch, bpp, 1.0, |px, c| load(px, c, f.sample), dst),
+                SampleType::F32 => channel_row(row, bpp, 1.0, |px| load(px, c, f.sample), dst),
             }
         },
     );

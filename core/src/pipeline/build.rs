@@ -483,7 +483,12 @@ pub fn build(
             cam(sm.f) != cam(sm.g)
         })
         .collect();
-    let seam_jump_before = seam_jump(&photo_seams, &tris, &packed.face_sheet, &out_uv, &res.sheets);
+    let face_level = |f: usize| match sub.face_sub[f] {
+        NONE => 0,
+        s => sub.sub_level[s as usize],
+    };
+    let seam_jump_before =
+        seam_jump(&photo_seams, &tris, &packed.face_sheet, &face_level, &out_uv, &res.sheets);
     let mut sweeps = 0u64;
     if cfg.smoothing && !seams.is_empty() {
         sweeps = smooth(
@@ -501,7 +506,8 @@ pub fn build(
             &mut res.sheets,
         );
     }
-    let seam_jump_after = seam_jump(&photo_seams, &tris, &packed.face_sheet, &out_uv, &res.sheets);
+    let seam_jump_after =
+        seam_jump(&photo_seams, &tris, &packed.face_sheet, &face_level, &out_uv, &res.sheets);
     times.smoothing_ms = ms(t);
     drop(refs);
     drop(photos);
@@ -779,25 +785,30 @@ fn corner_of(t: &[u32; 3], v: u32) -> usize {
     t.iter().position(|&x| x == v).unwrap_or(0)
 }
 
-/// A point of face `f`'s output triangle at parameter `s` along its edge `k`, moved half a
-/// texel (at most a third of the way) towards the opposite corner, so it samples the face itself
+/// A point of face `f`'s output triangle at parameter `s` along its edge `k`, moved `inset`
+/// texels (at most a third of the way) towards the opposite corner, so it samples the face itself
 /// and not the neighbour's gutter.
-fn inside_point(uv: [[f64; 2]; 3], k: usize, s: f64) -> [f64; 2] {
+fn inside_point(uv: [[f64; 2]; 3], k: usize, s: f64, inset: f64) -> [f64; 2] {
     let (a, b, o) = (uv[k], uv[(k + 1) % 3], uv[(k + 2) % 3]);
     let e = [a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1])];
     let d = [o[0] - e[0], o[1] - e[1]];
     let len = (d[0] * d[0] + d[1] * d[1]).sqrt().max(1e-12);
-    let t = (0.75 / len).min(1.0 / 3.0);
+    let t = (inset / len).min(1.0 / 3.0);
     [e[0] + t * d[0], e[1] + t * d[1]]
 }
 
+/// The colour jump across `seams`. Each side is sampled 0.75 full-resolution texels inside its
+/// face (`face_level` scales the inset), so a coarse sub-chart is sampled at the same surface
+/// distance from the seam as a full-resolution one.
 fn seam_jump(
     seams: &[Seam],
     tris: &[[u32; 3]],
     face_sheet: &[u32],
+    face_level: &dyn Fn(usize) -> u8,
     out_uv: &dyn Fn(usize, usize) -> [f64; 2],
     sheets: &[TileStore],
 ) -> f64 {
+    let inset = |f: usize| 0.75 / f64::from(1u32 << face_level(f));
     let mut sum = 0.0;
     let mut n = 0.0;
     for sm in seams {
@@ -810,11 +821,11 @@ fn seam_jump(
         let uvg = [0, 1, 2].map(|c| out_uv(g, c));
         let forward_g = tris[g][(kg + 1) % 3] == va;
         for s in [0.25, 0.5, 0.75] {
-            let pf = inside_point(uvf, k, s);
+            let pf = inside_point(uvf, k, s, inset(f));
             let pg = if forward_g {
-                inside_point(uvg, kg, 1.0 - s)
+                inside_point(uvg, kg, 1.0 - s, inset(g))
             } else {
-                inside_point(uvg, corner_of(&tris[g], va), s)
+                inside_point(uvg, corner_of(&tris[g], va), s, inset(g))
             };
             let cf = smoothing::sample(&sheets[face_sheet[f] as usize], pf);
             let cg = smoothing::sample(&sheets[face_sheet[g] as usize], pg);
@@ -916,7 +927,7 @@ fn smooth(
             let steps = (len * 2.0).ceil().max(1.0) as u32;
             for s in 0..=steps {
                 let t = (f64::from(s) + 0.5) / f64::from(steps + 1);
-                let q = inside_point(uv, k, t);
+                let q = inside_point(uv, k, t, 0.75);
                 let x = [0, 1, 2].map(|d| pa[d] + t * (pb[d] - pa[d]));
                 let corr = if same_photo {
                     [0.0; 3]

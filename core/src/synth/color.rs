@@ -137,9 +137,9 @@ pub fn true_color(p: [f64; 3]) -> [f64; 3] {
 /// Wavelength (model units) of the field that decides where [`patchy_color`] is smooth.
 const PATCH_WAVELENGTH: f64 = 1.25;
 /// Width of the ramp between detailed and smooth patches, in units of that field.
-const PATCH_RAMP: f64 = 0.1;
+const PATCH_RAMP: f64 = 0.03;
 
-/// The weight of the detail octaves (2 to 5) at `p` when about a fraction `smooth` of the
+/// The weight of the detail octaves (1 to 5) at `p` when about a fraction `smooth` of the
 /// surface is to be smooth: 0 in the smooth patches, 1 elsewhere, a short ramp between. The
 /// patches follow a low-frequency field (two plane waves of wavelength [`PATCH_WAVELENGTH`]);
 /// the fraction is that of a single sine's level set, so only approximate.
@@ -156,9 +156,9 @@ pub fn detail_weight(p: [f64; 3], smooth: f64) -> f64 {
     x * x * (3.0 - 2.0 * x)
 }
 
-/// [`true_color`] with smooth patches: the detail octaves (wavelengths 0.1 and below) faded out
-/// over about a fraction `smooth` of the surface ([`detail_weight`]), leaving only the palette
-/// octaves of wavelength 0.3 and 0.9 there. A capture of such a surface has regions a coarse
+/// [`true_color`] with smooth patches: every octave but the first (wavelengths 0.3 and below)
+/// faded out over about a fraction `smooth` of the surface ([`detail_weight`]), leaving only the
+/// palette octave of wavelength 0.9 there. A capture of such a surface has regions a coarse
 /// pyramid level textures as well as the photo, as real scans of plaster, skin or sky have.
 /// `smooth = 0` is exactly [`true_color`].
 pub fn patchy_color(p: [f64; 3], smooth: f64) -> [f64; 3] {
@@ -175,7 +175,7 @@ fn color_with_detail(p: [f64; 3], m: f64) -> [f64; 3] {
         p[2] + WARP_AMPLITUDE * w.warp[2].eval(p),
     ];
     let oct = |o: usize, x: [f64; 3]| 0.5 * (w.octaves[o][0].eval(x) + w.octaves[o][1].eval(x));
-    let (s0, s1, s2) = (oct(0, q), oct(1, q), oct(2, q) * m);
+    let (s0, s1, s2) = (oct(0, q), oct(1, q) * m, oct(2, q) * m);
     let (s3, s4, s5) = (oct(3, p) * m, oct(4, p) * m, oct(5, p) * m);
     let base = palette(0.5 + 0.38 * s0 + 0.17 * s1);
     let detail = (0.5 * s2 + 0.35 * s3 + 0.25 * s4 + 0.18 * s5) / 1.28;
