@@ -8,6 +8,17 @@ use scanatlas_core::plugin::Registry;
 use scanatlas_core::synth::rig::{RigParams, generate_rig, texture_psnr, texture_psnr_with};
 use scanatlas_core::texture::{TileStore, decode};
 
+/// An output model and its sheets decoded into tile stores under `work`.
+fn load_output(
+    out: &std::path::Path,
+    work: &std::path::Path,
+) -> (scanatlas_core::model::Model, Vec<TileStore>) {
+    let m = scanatlas_core::io::read_model(out).unwrap();
+    let sheets =
+        m.sheets.iter().map(|s| decode::decode_to_store(&s.image, work).unwrap()).collect();
+    (m, sheets)
+}
+
 #[test]
 fn build_from_a_synthetic_rig() {
     let dir = tempfile::tempdir().unwrap();
@@ -37,12 +48,7 @@ fn build_from_a_synthetic_rig() {
     }
     assert!(plain.charts >= 2 && plain.unseen_faces < rig.faces / 20, "{plain:?}");
     let psnr = |out: &std::path::Path| {
-        let m = scanatlas_core::io::read_model(out).unwrap();
-        let sheets: Vec<_> = m
-            .sheets
-            .iter()
-            .map(|s| decode::decode_to_store(&s.image, dir.path()).unwrap())
-            .collect();
+        let (m, sheets) = load_output(out, dir.path());
         texture_psnr(&m, &sheets, &[])
     };
     let (db, texels) = psnr(&out);
@@ -84,15 +90,7 @@ fn frequency_split_saves_texels_on_smooth_regions_and_keeps_the_colour() {
     let base = BuildConfig { smoothing: false, ..BuildConfig::default() };
     let (out_plain, plain) = run("plain", BuildConfig { frequency_split: false, ..base.clone() });
     let (out_split, split) = run("split", base.clone());
-    let load = |out: &std::path::Path| {
-        let m = scanatlas_core::io::read_model(out).unwrap();
-        let sheets: Vec<_> = m
-            .sheets
-            .iter()
-            .map(|s| decode::decode_to_store(&s.image, dir.path()).unwrap())
-            .collect();
-        (m, sheets)
-    };
+    let load = |out: &std::path::Path| load_output(out, dir.path());
     let (m_plain, s_plain) = load(&out_plain);
     let (model, s_split) = load(&out_split);
     let (db_plain, _) = texture_psnr_with(&m_plain, &s_plain, &[], &|x| p.color(x));

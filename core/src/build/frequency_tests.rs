@@ -265,27 +265,8 @@ fn splitting_keeps_every_face_once_and_never_textures_a_face_coarser() {
     assert!(s.sub_chart.len() >= 4, "{} sub-charts", s.sub_chart.len());
     assert!(s.sub_level.contains(&3) && s.sub_level.contains(&2));
     assert!(s.rect_texels_after < s.rect_texels_before * 2 / 3, "{s:?}");
-    // Sub-charts are edge-connected: a flood from each one's first face reaches all of it.
-    let mut reached = vec![false; nf];
-    let mut started = vec![false; s.sub_chart.len()];
-    for f in 1..nf {
-        let c = s.face_sub[f];
-        if started[c as usize] {
-            continue;
-        }
-        started[c as usize] = true;
-        let mut stack = vec![f];
-        reached[f] = true;
-        while let Some(x) = stack.pop() {
-            for &g in &adj[x] {
-                if g != NONE && !reached[g as usize] && s.face_sub[g as usize] == c {
-                    reached[g as usize] = true;
-                    stack.push(g as usize);
-                }
-            }
-        }
-    }
-    assert!((1..nf).all(|f| reached[f]), "sub-charts connected");
+    // Sub-charts are edge-connected.
+    assert!(super::tests::labels_connected(&s.face_sub, &adj), "sub-charts connected");
     // Deterministic whatever the thread count.
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
     let s1 = one.install(|| split_charts(&inp));

@@ -197,27 +197,7 @@ fn partition_covers_every_seen_face_once_with_connected_charts_that_see_them() {
         }
     }
     // Connected: a flood over same-chart neighbours from each chart's first face reaches all.
-    let n = p.chart_camera.len();
-    let mut reached = vec![false; tris.len()];
-    let mut started = vec![false; n];
-    for f in 0..tris.len() {
-        let c = p.face_chart[f];
-        if c == NONE || started[c as usize] {
-            continue;
-        }
-        started[c as usize] = true;
-        let mut stack = vec![f];
-        reached[f] = true;
-        while let Some(x) = stack.pop() {
-            for &g in &adj[x] {
-                if g != NONE && !reached[g as usize] && p.face_chart[g as usize] == c {
-                    reached[g as usize] = true;
-                    stack.push(g as usize);
-                }
-            }
-        }
-    }
-    assert!((0..tris.len()).all(|f| p.face_chart[f] == NONE || reached[f]), "charts connected");
+    assert!(labels_connected(&p.face_chart, &adj), "charts connected");
     // Merged: no two adjacent charts share a camera.
     for f in 0..tris.len() {
         for &g in &adj[f] {
@@ -243,4 +223,31 @@ fn multigrid_diffusion_spreads_fixed_corrections_smoothly() {
     let mid = c[10 * 40 + 20][0];
     assert!((mid - 0.2 * 19.0 / 39.0).abs() < 0.03, "{mid}");
     assert!(c[10 * 40 + 5][0] > mid && mid > c[10 * 40 + 35][0]);
+}
+
+/// Whether every label of `labels` (one per face, `NONE` for unlabelled faces) is one
+/// edge-connected region of `adj`: a flood over same-label neighbours from each label's first
+/// face reaches all of its faces.
+pub(super) fn labels_connected(labels: &[u32], adj: &[[u32; 3]]) -> bool {
+    let n = labels.iter().filter(|&&c| c != NONE).map(|&c| c as usize + 1).max().unwrap_or(0);
+    let mut reached = vec![false; labels.len()];
+    let mut started = vec![false; n];
+    for f in 0..labels.len() {
+        let c = labels[f];
+        if c == NONE || started[c as usize] {
+            continue;
+        }
+        started[c as usize] = true;
+        let mut stack = vec![f];
+        reached[f] = true;
+        while let Some(x) = stack.pop() {
+            for &g in &adj[x] {
+                if g != NONE && !reached[g as usize] && labels[g as usize] == c {
+                    reached[g as usize] = true;
+                    stack.push(g as usize);
+                }
+            }
+        }
+    }
+    (0..labels.len()).all(|f| labels[f] == NONE || reached[f])
 }
