@@ -201,13 +201,13 @@ pub fn defrag_with_progress(
 
     progress(DefragStage::Merge);
     let t = Instant::now();
+    let input_sheet_sizes: Vec<(u32, u32)> = in_sizes.iter().map(|s| s.unwrap_or((1, 1))).collect();
     let mut merge_opts = cfg.merge.clone();
     if merge_opts.max_chart_extent == 0.0 {
         // No merge may make a chart that cannot go on an output sheet (the shorter side, so
         // that it fits however the packer turns it), padding included, and two texels more on
         // each side for the packer's conservative raster of the footprint.
-        let sizes: Vec<(u32, u32)> = in_sizes.iter().map(|s| s.unwrap_or((1, 1))).collect();
-        let (w, h) = max_sheet_size(&cfg.pack, &sizes);
+        let (w, h) = max_sheet_size(&cfg.pack, &input_sheet_sizes);
         let side = f64::from(w.min(h)) - 2.0 * f64::from(cfg.pack.padding) - 4.0;
         merge_opts.max_chart_extent = side.max(1.0);
     }
@@ -233,8 +233,6 @@ pub fn defrag_with_progress(
         let (face_chart, unpacked) = packing_charts(&topo, &layout, model.sheets.len());
         let face_area_3d: Vec<f64> = model.face_ids().map(|f| area_3d(&model, f)).collect();
         let corner_vert: Vec<u32> = topo.corner_uv.iter().map(|v| v.0).collect();
-        let input_sheet_sizes: Vec<(u32, u32)> =
-            in_sizes.iter().map(|s| s.unwrap_or((1, 1))).collect();
         let li = LayoutInput {
             corner_vert: &corner_vert,
             vert_uv: &topo.uv_pos,
