@@ -4,10 +4,11 @@
 //! sub-chart's border blends in texels a whole coarse texel outside its faces. Dilation would put
 //! copies of the border texels there, off by the colour change over `2^l` pixels: a visible seam
 //! around every coarse sub-chart. Every sub-chart is an exact grid placement of its level's
-//! texels, so the ring of `radius` texels around it can be copied from that level instead. A
-//! ring texel also carries the difference between the output and the source at the texel it
-//! continues (zero for copied texels, the colour correction after smoothing), so the ring stays
-//! consistent with the corrected interior.
+//! texels, so the ring of texels around it that filtering reads can be copied from that level
+//! instead (the build copies one texel; dilation continues from there). A ring texel also
+//! carries the difference between the output and the source at the texel it continues (zero for
+//! copied texels, the colour correction after smoothing), so the ring stays consistent with the
+//! corrected interior.
 
 use crate::build::smoothing::{read_rgb, write_rgb};
 use crate::geometry::GridTransform;

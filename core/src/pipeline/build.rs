@@ -168,6 +168,9 @@ pub struct FrequencyReport {
     pub split_ms: f64,
 }
 
+/// Texels around a coarse sub-chart copied from its pyramid level (see `coarse_gutter`).
+const RING: u32 = 1;
+
 fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
@@ -476,10 +479,12 @@ pub fn build(
     // Coarse sub-charts get their gutter ring from their pyramid level (see `coarse_gutter`);
     // without splitting there are none.
     let radius = cfg.padding.clamp(1, crate::texture::gutter::MAX_RADIUS);
+    // One texel is what bilinear filtering reads; further out the photo may show background or
+    // an occluder, which dilated copies of the ring keep out of the mip levels.
     let coarse = coarse_charts(&sub.face_sub, &sub.sub_level, &sub_sheet, &packed);
     let out_tri = |f: usize| mappings[f].dst;
     let mut ring = Vec::new();
-    fill_rings(&coarse, &out_tri, radius, &photos, &mut res.sheets, &covs, &mut ring);
+    fill_rings(&coarse, &out_tri, RING, &photos, &mut res.sheets, &covs, &mut ring);
     times.texture_ms = ms(t);
 
     let t = Instant::now();
@@ -525,7 +530,7 @@ pub fn build(
         seam_jump(&photo_seams, &tris, &packed.face_sheet, &face_level, &out_uv, &res.sheets);
     if sweeps > 0 && !coarse.is_empty() {
         // Carry the smoothing corrections into the coarse rings.
-        fill_rings(&coarse, &out_tri, radius, &photos, &mut res.sheets, &covs, &mut ring);
+        fill_rings(&coarse, &out_tri, RING, &photos, &mut res.sheets, &covs, &mut ring);
     }
     times.smoothing_ms = ms(t);
     drop(refs);
