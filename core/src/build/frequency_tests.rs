@@ -310,3 +310,70 @@ fn a_gaussian_level_sampled_at_level_uvs_reproduces_a_linear_ramp() {
         }
     }
 }
+
+#[test]
+fn coarse_rings_copy_the_source_around_a_chart_and_nothing_else() {
+    use super::coarse_gutter::{CoarseChart, fill_rings};
+    use crate::geometry::GridTransform;
+    use crate::texture::gutter::Coverage;
+    use crate::texture::raster::{PixelRect, rasterize_triangle};
+    let dir = tempfile::tempdir().unwrap();
+    let mut src = TileStore::create(dir.path(), 40, 40, PixelFormat::RGB8).unwrap();
+    for y in 0..40 {
+        for x in 0..40 {
+            src.pixel_mut(x, y).copy_from_slice(&[(3 * x) as u8, (5 * y) as u8, 7]);
+        }
+    }
+    let mut out = vec![TileStore::create(dir.path(), 40, 40, PixelFormat::RGB8).unwrap()];
+    // One triangle copied at an offset of (+5, +3) texels; a second face, of another chart, sits
+    // right next to it and must keep its texels.
+    let t = GridTransform { offset: [5, 3], ..GridTransform::IDENTITY };
+    let tri = [[10.0, 10.0], [20.0, 10.0], [10.0, 20.0]].map(|p| t.apply(p));
+    let other = [[26.0, 13.5], [30.0, 13.5], [26.0, 17.5]];
+    let tris = [tri, other];
+    // The chart's face texels are copies of the source, as the resampler makes them; the other
+    // face's are a flat (1, 2, 3).
+    let mut cov = vec![Coverage::for_store(&out[0])];
+    let mut mine = Vec::new();
+    for (k, tr) in tris.iter().enumerate() {
+        rasterize_triangle(*tr, 40, PixelRect::new(0, 0, 40, 40), |i, j, _| {
+            if k == 0 {
+                mine.push((i, j));
+            }
+            let v = match t.source_pixel(i, j, 40, 40, 40) {
+                Some((sx, sy)) if k == 0 => src.pixel(sx, sy).to_vec(),
+                _ => vec![1, 2, 3],
+            };
+            out[0].pixel_mut(i, j).copy_from_slice(&v);
+            cov[0].set(i, j);
+        });
+    }
+    let chart = CoarseChart { out_sheet: 0, src_sheet: 0, transform: t, faces: vec![0] };
+    let mut ring = Vec::new();
+    let sources = [src];
+    fill_rings(&[chart], &|f| tris[f], 2, &sources, &mut out, &cov, &mut ring);
+    assert!(ring.len() > 20, "{} ring texels", ring.len());
+    for &(_, x, y) in &ring {
+        assert!(!cov[0].get(x, y), "a face texel was overwritten");
+        let (sx, sy) = t.source_pixel(x, y, 40, 40, 40).unwrap();
+        assert_eq!(out[0].pixel(x, y), sources[0].pixel(sx, sy), "ring texel ({x}, {y})");
+    }
+    // The ring is exactly the texels off every face within two texels of the chart.
+    let mut want = Vec::new();
+    for y in 0..40u32 {
+        for x in 0..40u32 {
+            let near = mine.iter().any(|&(i, j)| x.abs_diff(i) <= 2 && y.abs_diff(j) <= 2);
+            if near && !cov[0].get(x, y) {
+                want.push((0u32, x, y));
+            }
+        }
+    }
+    let mut got = ring.clone();
+    got.sort_unstable_by_key(|&(s, x, y)| (s, y, x));
+    want.sort_unstable_by_key(|&(s, x, y)| (s, y, x));
+    assert_eq!(got, want);
+    // The other chart's face texels are untouched.
+    rasterize_triangle(other, 40, PixelRect::new(0, 0, 40, 40), |i, j, _| {
+        assert_eq!(out[0].pixel(i, j), &[1, 2, 3]);
+    });
+}

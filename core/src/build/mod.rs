@@ -6,6 +6,7 @@
 
 pub mod bundler;
 pub mod cameras;
+pub mod coarse_gutter;
 pub mod colmap;
 pub mod frequency;
 pub mod partition;

@@ -10,6 +10,7 @@ use std::time::Instant;
 use super::PipelineError;
 use super::convert::output_sheet_path;
 use crate::build::cameras::PhotoCamera;
+use crate::build::coarse_gutter::{CoarseChart, fill_rings};
 use crate::build::frequency::{self, FrequencyOptions};
 use crate::build::partition::{FaceGeom, NONE, Partition, face_adjacency, partition};
 use crate::build::pyramid::{MAX_LEVELS, level_size, reduce_store, to_level};
@@ -166,6 +167,9 @@ pub struct FrequencyReport {
     pub analysis_ms: f64,
     pub split_ms: f64,
 }
+
+/// Texels around a coarse sub-chart copied from its pyramid level (see `coarse_gutter`).
+const RING: u32 = 1;
 
 fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
@@ -465,6 +469,22 @@ pub fn build(
     // Gutters come after smoothing, so they carry the corrected colours.
     let ropts = ResampleOptions { dilate: 0, push_pull: false, work_dir: work_dir.clone() };
     let mut res = resample_sheets(&refs, &mappings, &packed.sheet_sizes, &ropts)?;
+    // Face coverage of every output sheet: what the gutters grow from.
+    let mut covs: Vec<Coverage> = res.sheets.iter().map(Coverage::for_store).collect();
+    for (f, m) in mappings.iter().enumerate() {
+        let sh = packed.face_sheet[f] as usize;
+        let (w, h) = (res.sheets[sh].width(), res.sheets[sh].height());
+        rasterize_triangle(m.dst, h, PixelRect::new(0, 0, w, h), |i, j, _| covs[sh].set(i, j));
+    }
+    // Coarse sub-charts get their gutter ring from their pyramid level (see `coarse_gutter`);
+    // without splitting there are none.
+    let radius = cfg.padding.clamp(1, crate::texture::gutter::MAX_RADIUS);
+    // One texel is what bilinear filtering reads; further out the photo may show background or
+    // an occluder, which dilated copies of the ring keep out of the mip levels.
+    let coarse = coarse_charts(&sub.face_sub, &sub.sub_level, &sub_sheet, &packed);
+    let out_tri = |f: usize| mappings[f].dst;
+    let mut ring = Vec::new();
+    fill_rings(&coarse, &out_tri, RING, &photos, &mut res.sheets, &covs, &mut ring);
     times.texture_ms = ms(t);
 
     let t = Instant::now();
@@ -508,22 +528,21 @@ pub fn build(
     }
     let seam_jump_after =
         seam_jump(&photo_seams, &tris, &packed.face_sheet, &face_level, &out_uv, &res.sheets);
+    if sweeps > 0 && !coarse.is_empty() {
+        // Carry the smoothing corrections into the coarse rings.
+        fill_rings(&coarse, &out_tri, RING, &photos, &mut res.sheets, &covs, &mut ring);
+    }
     times.smoothing_ms = ms(t);
     drop(refs);
     drop(photos);
 
     let t = Instant::now();
-    for (s, store) in res.sheets.iter_mut().enumerate() {
-        let mut cov = Coverage::for_store(store);
-        let h = store.height();
-        let rect = PixelRect::new(0, 0, store.width(), h);
-        for (f, m) in mappings.iter().enumerate() {
-            if packed.face_sheet[f] as usize == s {
-                rasterize_triangle(m.dst, h, rect, |i, j, _| cov.set(i, j));
-            }
-        }
-        dilate(store, &mut cov, cfg.padding.clamp(1, crate::texture::gutter::MAX_RADIUS))?;
-        push_pull(store, &mut cov, &work_dir)?;
+    for &(sh, x, y) in &ring {
+        covs[sh as usize].set(x, y);
+    }
+    for (store, cov) in res.sheets.iter_mut().zip(covs.iter_mut()) {
+        dilate(store, cov, radius)?;
+        push_pull(store, cov, &work_dir)?;
     }
     times.gutter_ms = ms(t);
 
@@ -598,6 +617,34 @@ pub fn build(
         resample: Some(res.report.clone()),
         times,
     })
+}
+
+/// The packed sub-charts at a level coarser than 0 that were placed as exact grid copies.
+fn coarse_charts(
+    face_sub: &[u32],
+    sub_level: &[u8],
+    sub_sheet: &[u32],
+    packed: &crate::pack::PackedLayout,
+) -> Vec<CoarseChart> {
+    let mut index = vec![NONE; sub_level.len()];
+    let mut out: Vec<CoarseChart> = Vec::new();
+    for (f, &s) in face_sub.iter().enumerate() {
+        if s == NONE || sub_level[s as usize] == 0 {
+            continue;
+        }
+        let Some(transform) = packed.chart_transform[s as usize] else { continue };
+        if index[s as usize] == NONE {
+            index[s as usize] = out.len() as u32;
+            out.push(CoarseChart {
+                out_sheet: packed.face_sheet[f],
+                src_sheet: sub_sheet[s as usize],
+                transform,
+                faces: Vec::new(),
+            });
+        }
+        out[index[s as usize] as usize].faces.push(f as u32);
+    }
+    out
 }
 
 /// Faces per level.
