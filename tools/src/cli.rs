@@ -246,6 +246,10 @@ pub struct DefragArgs {
     /// Write the merged UVs on the input sheets only: no packing, no new textures.
     #[arg(long)]
     pub merge_only: bool,
+    /// Leave the folds and self-overlaps inherited from the input as they are (by default they
+    /// are repaired wherever the output resamples anyway).
+    #[arg(long)]
+    pub no_untangle: bool,
     /// Packer plugin (`horizon`, `skyline`) [default: horizon].
     #[arg(long)]
     pub packer: Option<String>,

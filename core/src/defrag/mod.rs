@@ -23,6 +23,7 @@ mod output;
 mod patch;
 mod state;
 mod undo;
+mod untangle;
 mod zero_area;
 
 #[cfg(test)]
@@ -32,6 +33,7 @@ pub use clusters::merge_charts_parallel;
 pub use greedy::merge_charts;
 pub use output::merged_model;
 pub use state::MergedLayout;
+pub use untangle::{UntangleOptions, UntangleReport, untangle_charts};
 pub use zero_area::ZeroAreaReport;
 
 use crate::plugin::Veto;

@@ -327,3 +327,61 @@ fn a_merge_that_would_outgrow_the_sheet_is_refused() {
     let (_, r) = run(&m, &fits);
     assert_eq!((r.accepted, r.rejected.too_large), (1, 0), "{r:?}");
 }
+
+/// An 8 × 8 grid in one chart whose UV vertex at (4, 4) sits beyond its right neighbour, so the
+/// fan around it folds over (as lattice-snapped photogrammetry atlases do).
+fn folded_grid() -> Model {
+    let map = |q: [f64; 3]| {
+        let p = if q[0] == 4.0 && q[1] == 4.0 { [5.4, 4.3] } else { [q[0], q[1]] };
+        [10.0 + 4.0 * p[0], 10.0 + 4.0 * p[1]]
+    };
+    two_halves(8, map, map)
+}
+
+fn folded_and_overlapping(t: &Topology) -> (usize, usize) {
+    let tri = |f: usize| [0, 1, 2].map(|k| t.uv_pos[t.corner_uv[3 * f + k].idx()]);
+    let n = t.face_chart.len();
+    let folded = (0..n).filter(|&f| crate::geometry::signed_area2(tri(f)) < 0.0).count();
+    let mut pairs = 0;
+    for f in 0..n {
+        for g in f + 1..n {
+            pairs += usize::from(crate::geometry::triangles_overlap_beyond_noise(tri(f), tri(g)));
+        }
+    }
+    (folded, pairs)
+}
+
+#[test]
+fn a_folded_fan_is_untangled_and_the_rest_stays() {
+    let m = folded_grid();
+    let mut t = prepare(&m);
+    let (folded, pairs) = folded_and_overlapping(&t);
+    assert!(folded > 0 && pairs > 0, "the fixture folds: {folded} folded, {pairs} pairs");
+    let before = t.uv_pos.clone();
+    let n = t.face_chart.len();
+    let report =
+        untangle_charts(&mut t, &vec![0; n], 1, &vec![false; n], &mut Keep, &Default::default());
+    assert_eq!(report.folded_faces as usize, folded, "{report:?}");
+    assert_eq!(report.regions_repaired, report.regions, "{report:?}");
+    assert_eq!((report.folded_faces_left, report.overlapping_pairs_left), (0, 0), "{report:?}");
+    assert_eq!(folded_and_overlapping(&t), (0, 0));
+    // Only vertices near the fold (the fold's faces and two rings, at 4 texels a ring) moved.
+    for (a, b) in before.iter().zip(&t.uv_pos).filter(|(a, b)| a != b) {
+        let d = (a[0] - 26.0).abs().max((a[1] - 26.0).abs());
+        assert!(d <= 16.0, "{a:?} moved to {b:?}");
+    }
+    let corner = t.uv_pos.iter().position(|&p| p == [10.0, 10.0]).expect("corner vertex");
+    assert_eq!(before[corner], t.uv_pos[corner]);
+}
+
+#[test]
+fn anchored_faces_are_never_untangled() {
+    let m = folded_grid();
+    let mut t = prepare(&m);
+    let before = t.uv_pos.clone();
+    let n = t.face_chart.len();
+    let report =
+        untangle_charts(&mut t, &vec![0; n], 1, &vec![true; n], &mut Keep, &Default::default());
+    assert_eq!((report.folded_faces, report.overlapping_pairs, report.regions), (0, 0, 0));
+    assert_eq!(before, t.uv_pos);
+}

@@ -314,6 +314,29 @@ pub fn max_sheet_size(opts: &PackOptions, input_sheet_sizes: &[(u32, u32)]) -> (
     }
 }
 
+/// The faces each chart's heaviest anchor group would preserve (the group [`pack_layout`] tries
+/// first), for the stages before packing that must leave them alone. A chart that cannot keep
+/// that group on a sheet loses it in the packer anyway, so this may mark more than is preserved,
+/// never less.
+pub fn anchor_faces(input: &LayoutInput, opts: &PackOptions) -> Result<Vec<bool>, PackError> {
+    let vert_chart = validate(input, opts)?;
+    let (faces, _) = chart_lists(input, &vert_chart);
+    let mut marked = vec![false; input.face_chart.len()];
+    for c in 0..input.n_charts {
+        let fs = faces.of(c);
+        if fs.is_empty() {
+            continue;
+        }
+        let (mut rigid, chart_area) = rigid_faces(input, fs, opts);
+        if let Some((_, group)) = best_group(&mut rigid, opts.anchor_min_fraction * chart_area) {
+            for f in group {
+                marked[f as usize] = true;
+            }
+        }
+    }
+    Ok(marked)
+}
+
 /// Packs the charts of `input` onto sheets with `packer`; see [`PackedLayout`] for what comes
 /// out. Deterministic for a deterministic packer; the packer's answer is checked exactly.
 pub fn pack_layout(

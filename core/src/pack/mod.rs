@@ -16,7 +16,7 @@ mod layout;
 #[cfg(test)]
 mod tests;
 
-pub use layout::{max_sheet_size, pack_layout};
+pub use layout::{anchor_faces, max_sheet_size, pack_layout};
 
 use crate::geometry::GridTransform;
 use crate::plugin::PackerError;

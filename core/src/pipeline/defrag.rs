@@ -7,13 +7,16 @@ use std::time::Instant;
 
 use super::PipelineError;
 use super::convert::output_sheet_path;
-use crate::defrag::{MergeOptions, MergeReport, MergedLayout, merge_charts_parallel, merged_model};
+use crate::defrag::{
+    MergeOptions, MergeReport, MergedLayout, UntangleOptions, UntangleReport,
+    merge_charts_parallel, merged_model, untangle_charts,
+};
 use crate::index::{MaterialId, UvId};
 use crate::io::WriteOptions;
 use crate::metrics::{AtlasStats, StatsOptions, atlas_stats};
 use crate::model::{ImageSource, Model};
 use crate::pack::{
-    LayoutInput, PackOptions, PackReport, PackedLayout, max_sheet_size, pack_layout,
+    LayoutInput, PackOptions, PackReport, PackedLayout, anchor_faces, max_sheet_size, pack_layout,
 };
 use crate::plugin::{Params, Registry};
 use crate::texture::coords::texel_to_uv;
@@ -47,6 +50,14 @@ pub struct DefragConfig {
     /// Write the merged UVs on the input sheets, without packing or new textures (for measuring
     /// the merge stage alone).
     pub merge_only: bool,
+    /// Repair of inherited folds and self-overlaps before packing (see `defrag::untangle_charts`);
+    /// `None` skips it.
+    pub untangle: Option<UntangleOptions>,
+    /// The solver that relaxes a repaired region from its Tutte embedding: it should unfold what
+    /// the embedding folded and keep a flip-free start flip-free (`slim` does both). Its result
+    /// is checked for folds, distortion and overlaps whatever it is.
+    pub untangle_solver: String,
+    pub untangle_solver_params: Params,
 }
 
 impl Default for DefragConfig {
@@ -65,6 +76,9 @@ impl Default for DefragConfig {
             work_dir: None,
             metrics_overlaps: None,
             merge_only: false,
+            untangle: Some(UntangleOptions::default()),
+            untangle_solver: "slim".into(),
+            untangle_solver_params: Params::new(),
         }
     }
 }
@@ -129,6 +143,8 @@ pub struct DefragReport {
     pub faces_unpacked: u64,
     pub preparation: PreparationReport,
     pub merge: MergeReport,
+    /// `None` with `merge_only` or without the repair.
+    pub untangle: Option<UntangleReport>,
     pub pack: Option<PackReport>,
     pub resample: Option<ResampleReport>,
     /// Output sheet files written (empty with `merge_only`).
@@ -180,6 +196,12 @@ pub fn defrag_with_progress(
         solvers.push(registry.solver(&cfg.solver, &cfg.solver_params)?);
     }
     let packer = registry.packer(&cfg.packer, &cfg.packer_params)?;
+    let mut untangle_solver = match cfg.untangle {
+        Some(_) if !cfg.merge_only => {
+            Some(registry.solver(&cfg.untangle_solver, &cfg.untangle_solver_params)?)
+        }
+        _ => None,
+    };
     if same_file(input, output) {
         return Err(PipelineError::Usage(format!(
             "the output {} is the input model; choose another output path",
@@ -225,6 +247,7 @@ pub fn defrag_with_progress(
         ImageSource::Embedded { .. } => None,
     }));
 
+    let mut untangled = None;
     let (out_model, pack, resample, sheets, faces_unpacked) = if cfg.merge_only {
         (merged_model(&model, &topo), None, None, Vec::new(), 0)
     } else {
@@ -233,6 +256,27 @@ pub fn defrag_with_progress(
         let (face_chart, unpacked) = packing_charts(&topo, &layout, model.sheets.len());
         let face_area_3d: Vec<f64> = model.face_ids().map(|f| area_3d(&model, f)).collect();
         let corner_vert: Vec<u32> = topo.corner_uv.iter().map(|v| v.0).collect();
+        let li = LayoutInput {
+            corner_vert: &corner_vert,
+            vert_uv: &topo.uv_pos,
+            orig_uv: &topo.orig_uv,
+            face_chart: &face_chart,
+            face_sheet: &topo.face_sheet,
+            face_area_3d: &face_area_3d,
+            n_charts: layout.n_charts,
+            input_sheet_sizes: &input_sheet_sizes,
+        };
+        if let (Some(opts), Some(solver)) = (&cfg.untangle, untangle_solver.as_mut()) {
+            let anchored = anchor_faces(&li, &cfg.pack)?;
+            untangled = Some(untangle_charts(
+                &mut topo,
+                &face_chart,
+                layout.n_charts,
+                &anchored,
+                solver.as_mut(),
+                opts,
+            ));
+        }
         let li = LayoutInput {
             corner_vert: &corner_vert,
             vert_uv: &topo.uv_pos,
@@ -300,6 +344,7 @@ pub fn defrag_with_progress(
         faces_unpacked,
         preparation: topo.report.clone(),
         merge,
+        untangle: untangled,
         pack,
         resample,
         sheets,

@@ -16,7 +16,7 @@ use super::UsageError;
 use crate::cli::{DefragArgs, parse_sheet_size};
 
 /// The top-level keys a config file may hold (besides the plugin tables).
-pub const TOP_LEVEL_KEYS: [&str; 17] = [
+pub const TOP_LEVEL_KEYS: [&str; 18] = [
     "matching-tolerance",
     "boundary-tolerance",
     "local-distortion",
@@ -28,6 +28,7 @@ pub const TOP_LEVEL_KEYS: [&str; 17] = [
     "serial",
     "cluster-faces",
     "merge-only",
+    "no-untangle",
     "scorer",
     "solver",
     "packer",
@@ -293,6 +294,8 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
         work_dir: args.work_dir.clone(),
         metrics_overlaps: None,
         merge_only: args.merge_only || file.flag("merge-only")?,
+        untangle: if args.no_untangle || file.flag("no-untangle")? { None } else { base.untangle },
+        ..base
     })
 }
 

@@ -1,0 +1,635 @@
+//! Repair of folds and self-overlaps that charts inherit from the input, where the output will
+//! resample anyway: a Tutte embedding of a small disk around them, then an injectivity-keeping
+//! solve (SLIM) back toward the original triangle shapes, kept only when every check passes.
+//!
+//! Photogrammetry atlases fold onto themselves: RealityCapture snaps UVs to a lattice, so fans of
+//! small triangles wind more than once around a vertex, and Meshroom writes flipped faces. In the
+//! input these overlaps usually cover no texel centre; once the merge re-solves or turns the chart
+//! they do, and two surface parts then share texels (one of them gets the other's colour). Faces
+//! that the packer will copy verbatim (the chart's anchor group) are never touched, so grid
+//! preservation is unchanged.
+
+use std::time::Instant;
+
+use crate::geometry::{Tri2, isometric_energy, signed_area2, triangles_overlap_beyond_noise};
+use crate::plugin::{LocalProblem, LocalSolver};
+use crate::topology::Topology;
+
+/// Twice the evaluator's degenerate-area threshold (texel²): below it a doubled area counts as
+/// degenerate (the same threshold as the merge's fold check).
+const DEGENERATE_AREA2: f64 = 2e-6;
+
+/// Options of the repair.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct UntangleOptions {
+    /// How many rings of faces a region may grow by when its embedding or solve fails.
+    pub max_rings: u32,
+    /// The largest area-weighted mean isometric energy a repaired region may keep (the merge's
+    /// local threshold d).
+    pub local_distortion: f64,
+    /// Conjugate-gradient iterations of the Tutte embedding.
+    pub tutte_iterations: u32,
+}
+
+impl Default for UntangleOptions {
+    fn default() -> Self {
+        Self { max_rings: 4, local_distortion: 0.5, tutte_iterations: 2000 }
+    }
+}
+
+/// What the repair found and did.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct UntangleReport {
+    /// Pairs of faces of one chart whose UV triangles overlap, outside the anchor groups.
+    pub overlapping_pairs: u64,
+    /// Faces oriented against their chart, outside the anchor groups.
+    pub folded_faces: u64,
+    /// Connected groups of such faces, each repaired (or not) on its own.
+    pub regions: u64,
+    pub regions_repaired: u64,
+    /// Faces whose UVs the repairs changed.
+    pub faces_moved: u64,
+    /// Overlapping pairs and folded faces left after the repair.
+    pub overlapping_pairs_left: u64,
+    pub folded_faces_left: u64,
+    /// Why the regions left unrepaired failed their last (largest) attempt.
+    pub failed: UntangleFailures,
+    pub repair_ms: f64,
+}
+
+/// Why a region's attempt failed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Failure {
+    /// No free vertex, or nothing fixed to embed against.
+    NoFreeVertex,
+    /// The Tutte embedding folded or squashed a triangle (the region's outline is not convex
+    /// enough).
+    Embedding,
+    /// Unfolded, but further from the original shapes than the local threshold allows.
+    Distortion,
+    /// The repaired region overlaps its chart.
+    Overlap,
+}
+
+/// Regions left unrepaired, by the reason of their last attempt.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct UntangleFailures {
+    pub no_free_vertex: u64,
+    pub embedding: u64,
+    pub distortion: u64,
+    pub overlap: u64,
+}
+
+impl UntangleFailures {
+    fn count(&mut self, f: Failure) {
+        match f {
+            Failure::NoFreeVertex => self.no_free_vertex += 1,
+            Failure::Embedding => self.embedding += 1,
+            Failure::Distortion => self.distortion += 1,
+            Failure::Overlap => self.overlap += 1,
+        }
+    }
+}
+
+/// The faces of each chart, and the faces around each UV vertex (compressed lists).
+struct Lists {
+    chart_start: Vec<usize>,
+    chart_faces: Vec<u32>,
+    vert_start: Vec<usize>,
+    vert_faces: Vec<u32>,
+}
+
+impl Lists {
+    fn build(t: &Topology, face_chart: &[u32], n_charts: usize) -> Self {
+        let csr = |n: usize, keys: &mut dyn Iterator<Item = (usize, u32)>| {
+            let pairs: Vec<(usize, u32)> = keys.collect();
+            let mut start = vec![0usize; n + 1];
+            for &(k, _) in &pairs {
+                start[k + 1] += 1;
+            }
+            for i in 0..n {
+                start[i + 1] += start[i];
+            }
+            let mut fill = start.clone();
+            let mut items = vec![0u32; pairs.len()];
+            for &(k, f) in &pairs {
+                items[fill[k]] = f;
+                fill[k] += 1;
+            }
+            (start, items)
+        };
+        let packed = |f: &usize| face_chart[*f] != u32::MAX;
+        let (chart_start, chart_faces) = csr(
+            n_charts,
+            &mut (0..face_chart.len()).filter(packed).map(|f| (face_chart[f] as usize, f as u32)),
+        );
+        let (vert_start, vert_faces) = csr(
+            t.uv_pos.len(),
+            &mut (0..face_chart.len())
+                .filter(packed)
+                .flat_map(|f| (0..3).map(move |k| (3 * f + k, f as u32)))
+                .map(|(c, f)| (t.corner_uv[c].idx(), f)),
+        );
+        Self { chart_start, chart_faces, vert_start, vert_faces }
+    }
+
+    fn chart(&self, c: usize) -> &[u32] {
+        &self.chart_faces[self.chart_start[c]..self.chart_start[c + 1]]
+    }
+
+    fn around(&self, v: usize) -> &[u32] {
+        &self.vert_faces[self.vert_start[v]..self.vert_start[v + 1]]
+    }
+}
+
+#[inline]
+fn tri(t: &Topology, f: usize) -> Tri2 {
+    [0, 1, 2].map(|k| t.uv_pos[t.corner_uv[3 * f + k].idx()])
+}
+
+#[inline]
+fn orig(t: &Topology, f: usize) -> Tri2 {
+    [t.orig_uv[3 * f], t.orig_uv[3 * f + 1], t.orig_uv[3 * f + 2]]
+}
+
+#[inline]
+fn bbox(t: &Tri2) -> [f64; 4] {
+    let (mut b0, mut b1, mut b2, mut b3) = (t[0][0], t[0][1], t[0][0], t[0][1]);
+    for p in &t[1..] {
+        b0 = b0.min(p[0]);
+        b1 = b1.min(p[1]);
+        b2 = b2.max(p[0]);
+        b3 = b3.max(p[1]);
+    }
+    [b0, b1, b2, b3]
+}
+
+#[inline]
+fn boxes_meet(a: &[f64; 4], b: &[f64; 4]) -> bool {
+    a[0] <= b[2] && b[0] <= a[2] && a[1] <= b[3] && b[1] <= a[3]
+}
+
+/// Whether face `f` is folded against its chart's orientation `sign` (degenerate faces are not).
+#[inline]
+fn folded(a2: f64, sign: f64) -> bool {
+    a2.abs() >= DEGENERATE_AREA2 && a2 * sign < 0.0
+}
+
+/// Calls `found(f, g)` for every pair of faces of `faces` (f < g in list order) whose UV
+/// triangles overlap. A sort-based uniform grid: each pair is tested once, in the cell that holds
+/// the lower-left corner of the intersection of their boxes.
+fn overlapping_pairs(t: &Topology, faces: &[u32], mut found: impl FnMut(u32, u32)) {
+    if faces.len() < 2 {
+        return;
+    }
+    let boxes: Vec<[f64; 4]> = faces.iter().map(|&f| bbox(&tri(t, f as usize))).collect();
+    let mean_extent =
+        boxes.iter().map(|b| (b[2] - b[0]).max(b[3] - b[1])).sum::<f64>() / boxes.len() as f64;
+    let cell = (2.0 * mean_extent).max(1e-9);
+    let key = |x: f64| (x / cell).floor() as i64;
+    let mut entries: Vec<(i64, i64, u32)> = Vec::with_capacity(faces.len() * 2);
+    for (i, b) in boxes.iter().enumerate() {
+        if !b.iter().all(|x| x.is_finite()) {
+            continue;
+        }
+        // A face larger than 64 cells on a side is tested against everything it could touch
+        // through the cells it spans anyway; the cap only bounds the entries of one huge face.
+        let (x0, x1) = (key(b[0]), key(b[2]).min(key(b[0]) + 64));
+        let (y0, y1) = (key(b[1]), key(b[3]).min(key(b[1]) + 64));
+        for x in x0..=x1 {
+            for y in y0..=y1 {
+                entries.push((x, y, i as u32));
+            }
+        }
+    }
+    entries.sort_unstable();
+    let mut s = 0;
+    while s < entries.len() {
+        let mut e = s + 1;
+        while e < entries.len() && entries[e].0 == entries[s].0 && entries[e].1 == entries[s].1 {
+            e += 1;
+        }
+        let (cx, cy) = (entries[s].0, entries[s].1);
+        for a in s..e {
+            for b in a + 1..e {
+                let (i, j) = (entries[a].2 as usize, entries[b].2 as usize);
+                let (bi, bj) = (&boxes[i], &boxes[j]);
+                if !boxes_meet(bi, bj) {
+                    continue;
+                }
+                let (ox, oy) = (bi[0].max(bj[0]), bi[1].max(bj[1]));
+                let (kx, ky) = (key(ox).min(key(bi[0]) + 64), key(oy).min(key(bi[1]) + 64));
+                if (kx, ky) != (cx, cy) {
+                    continue;
+                }
+                let (f, g) = (faces[i], faces[j]);
+                if triangles_overlap_beyond_noise(tri(t, f as usize), tri(t, g as usize)) {
+                    found(f.min(g), f.max(g));
+                }
+            }
+        }
+        s = e;
+    }
+}
+
+/// The defects of one chart outside its anchor group: overlapping pairs and folded faces.
+fn defects(
+    t: &Topology,
+    faces: &[u32],
+    anchored: &[bool],
+    sign: f64,
+    pairs: &mut Vec<(u32, u32)>,
+    folds: &mut Vec<u32>,
+) {
+    pairs.clear();
+    folds.clear();
+    overlapping_pairs(t, faces, |f, g| {
+        if !(anchored[f as usize] && anchored[g as usize]) {
+            pairs.push((f, g));
+        }
+    });
+    pairs.sort_unstable();
+    for &f in faces {
+        if !anchored[f as usize] && folded(signed_area2(tri(t, f as usize)), sign) {
+            folds.push(f);
+        }
+    }
+}
+
+/// Union-find root with path halving.
+fn root(uf: &mut [u32], mut x: u32) -> u32 {
+    while uf[x as usize] != x {
+        uf[x as usize] = uf[uf[x as usize] as usize];
+        x = uf[x as usize];
+    }
+    x
+}
+
+/// Scratch of one region's attempts, reused across regions.
+#[derive(Default)]
+struct Region {
+    faces: Vec<u32>,
+    in_region: Vec<bool>,
+    verts: Vec<u32>,
+    local: Vec<u32>,
+    fixed: Vec<bool>,
+    start: Vec<[f64; 2]>,
+    problem: LocalProblem,
+}
+
+/// Repairs the folds and self-overlaps of every chart outside the faces `anchored` marks (see
+/// [`crate::pack::anchor_faces`]). `face_chart` is the packing chart of each face (`u32::MAX` =
+/// not packed). Regions are repaired one after another in a fixed order, so the result does not
+/// depend on the thread count; a region whose every check does not pass is left exactly as it was.
+pub fn untangle_charts(
+    t: &mut Topology,
+    face_chart: &[u32],
+    n_charts: usize,
+    anchored: &[bool],
+    solver: &mut dyn LocalSolver,
+    opts: &UntangleOptions,
+) -> UntangleReport {
+    let t0 = Instant::now();
+    let mut report = UntangleReport::default();
+    let lists = Lists::build(t, face_chart, n_charts);
+    let mut pairs = Vec::new();
+    let mut folds = Vec::new();
+    let mut uf: Vec<u32> = (0..face_chart.len() as u32).collect();
+    let mut r = Region {
+        in_region: vec![false; face_chart.len()],
+        local: vec![u32::MAX; t.uv_pos.len()],
+        ..Region::default()
+    };
+    for c in 0..n_charts {
+        let faces = lists.chart(c);
+        let area: f64 = faces.iter().map(|&f| signed_area2(tri(t, f as usize))).sum();
+        let sign = if area < 0.0 { -1.0 } else { 1.0 };
+        defects(t, faces, anchored, sign, &mut pairs, &mut folds);
+        if pairs.is_empty() && folds.is_empty() {
+            continue;
+        }
+        report.overlapping_pairs += pairs.len() as u64;
+        report.folded_faces += folds.len() as u64;
+        // Regions: the defective faces outside the anchor group, joined through their pairs.
+        let mut seeds: Vec<u32> = folds.clone();
+        for &(f, g) in &pairs {
+            seeds.extend([f, g].into_iter().filter(|&x| !anchored[x as usize]));
+            if !anchored[f as usize] && !anchored[g as usize] {
+                let (a, b) = (root(&mut uf, f), root(&mut uf, g));
+                uf[a.max(b) as usize] = a.min(b);
+            }
+        }
+        seeds.sort_unstable();
+        seeds.dedup();
+        let mut groups: Vec<(u32, u32)> = seeds.iter().map(|&f| (root(&mut uf, f), f)).collect();
+        groups.sort_unstable();
+        for &f in &seeds {
+            uf[f as usize] = f;
+        }
+        let mut i = 0;
+        while i < groups.len() {
+            let mut j = i + 1;
+            while j < groups.len() && groups[j].0 == groups[i].0 {
+                j += 1;
+            }
+            report.regions += 1;
+            let seed: Vec<u32> = groups[i..j].iter().map(|&(_, f)| f).collect();
+            match repair(t, &lists, faces, anchored, sign, &seed, &mut r, solver, opts) {
+                Ok(moved) => {
+                    report.regions_repaired += 1;
+                    report.faces_moved += moved;
+                }
+                Err(why) => report.failed.count(why),
+            }
+            i = j;
+        }
+        defects(t, faces, anchored, sign, &mut pairs, &mut folds);
+        report.overlapping_pairs_left += pairs.len() as u64;
+        report.folded_faces_left += folds.len() as u64;
+    }
+    report.repair_ms = t0.elapsed().as_secs_f64() * 1e3;
+    report
+}
+
+/// Tries to repair one region, growing it ring by ring; returns the faces moved on success, or
+/// why the last attempt failed.
+#[allow(clippy::too_many_arguments)]
+fn repair(
+    t: &mut Topology,
+    lists: &Lists,
+    chart: &[u32],
+    anchored: &[bool],
+    sign: f64,
+    seed: &[u32],
+    r: &mut Region,
+    solver: &mut dyn LocalSolver,
+    opts: &UntangleOptions,
+) -> Result<u64, Failure> {
+    r.faces.clear();
+    r.faces.extend_from_slice(seed);
+    for &f in seed {
+        r.in_region[f as usize] = true;
+    }
+    let mut result = Err(Failure::NoFreeVertex);
+    for _ in 0..=opts.max_rings {
+        grow(t, lists, anchored, r);
+        result = attempt(t, lists, chart, sign, r, solver, opts).map(|()| r.faces.len() as u64);
+        if result.is_ok() {
+            break;
+        }
+    }
+    for &f in &r.faces {
+        r.in_region[f as usize] = false;
+    }
+    result
+}
+
+/// Adds one ring: every face outside the anchor group that shares a UV vertex with the region.
+fn grow(t: &Topology, lists: &Lists, anchored: &[bool], r: &mut Region) {
+    let n = r.faces.len();
+    for i in 0..n {
+        let f = r.faces[i] as usize;
+        for k in 0..3 {
+            for &g in lists.around(t.corner_uv[3 * f + k].idx()) {
+                if !anchored[g as usize] && !r.in_region[g as usize] {
+                    r.in_region[g as usize] = true;
+                    r.faces.push(g);
+                }
+            }
+        }
+    }
+    r.faces.sort_unstable();
+}
+
+/// One embedding, solve and check of the current region; leaves the layout changed only when
+/// it succeeds.
+fn attempt(
+    t: &mut Topology,
+    lists: &Lists,
+    chart_faces: &[u32],
+    sign: f64,
+    r: &mut Region,
+    solver: &mut dyn LocalSolver,
+    opts: &UntangleOptions,
+) -> Result<(), Failure> {
+    // Local vertices; a vertex is free when every face around it is in the region and it is on
+    // no border side of the chart, so the region's outline stays where it is.
+    r.verts.clear();
+    for &f in &r.faces {
+        for k in 0..3 {
+            let v = t.corner_uv[3 * f as usize + k].0;
+            if r.local[v as usize] == u32::MAX {
+                r.local[v as usize] = r.verts.len() as u32;
+                r.verts.push(v);
+            }
+        }
+    }
+    r.fixed.clear();
+    r.fixed.extend(
+        r.verts.iter().map(|&v| lists.around(v as usize).iter().any(|&g| !r.in_region[g as usize])),
+    );
+    for &f in &r.faces {
+        for k in 0..3 {
+            if t.he_uv_twin[3 * f as usize + k].is_none() {
+                for kk in [k, (k + 1) % 3] {
+                    let v = t.corner_uv[3 * f as usize + kk].idx();
+                    r.fixed[r.local[v] as usize] = true;
+                }
+            }
+        }
+    }
+    r.start.clear();
+    r.start.extend(r.verts.iter().map(|&v| t.uv_pos[v as usize]));
+    let result = if r.fixed.iter().any(|&x| !x) && r.fixed.iter().any(|&x| x) {
+        solve_region(t, chart_faces, sign, r, solver, opts)
+    } else {
+        Err(Failure::NoFreeVertex)
+    };
+    if result.is_err() {
+        for (i, &v) in r.verts.iter().enumerate() {
+            t.uv_pos[v as usize] = r.start[i];
+        }
+    }
+    for &v in &r.verts {
+        r.local[v as usize] = u32::MAX;
+    }
+    r.start.clear();
+    result
+}
+
+/// Tutte embedding, then the solver, then the checks; positions are written into `t`.
+fn solve_region(
+    t: &mut Topology,
+    chart_faces: &[u32],
+    sign: f64,
+    r: &mut Region,
+    solver: &mut dyn LocalSolver,
+    opts: &UntangleOptions,
+) -> Result<(), Failure> {
+    let p = &mut r.problem;
+    p.uv.clear();
+    p.uv.extend_from_slice(&r.start);
+    p.fixed.clear();
+    p.fixed.extend_from_slice(&r.fixed);
+    p.triangles.clear();
+    p.targets.clear();
+    for &f in &r.faces {
+        let f = f as usize;
+        p.triangles.push([0, 1, 2].map(|k| r.local[t.corner_uv[3 * f + k].idx()]));
+        // Every target takes the chart's orientation: a face folded in the input is unfolded
+        // toward the mirror image of its shape, which has the same energy (reflection-invariant).
+        let mut o = orig(t, f);
+        if signed_area2(o) * sign < 0.0 {
+            for q in &mut o {
+                q[0] = -q[0];
+            }
+        }
+        p.targets.push(o);
+    }
+    tutte(&mut p.uv, &p.fixed, &p.triangles, opts.tutte_iterations);
+    // A Tutte embedding folds near concave corners of the region's outline; the solver may
+    // unfold those (slim's `init = arap`), and a flip-free start it keeps flip-free.
+    let embedded_ok = all_oriented(&p.uv, &p.triangles, sign);
+    let embedded = p.uv.clone();
+    let solved = solver.solve(p).is_ok()
+        && p.uv.iter().flatten().all(|x| x.is_finite())
+        && all_oriented(&p.uv, &p.triangles, sign);
+    if !solved {
+        if !embedded_ok {
+            return Err(Failure::Embedding);
+        }
+        p.uv.clear();
+        p.uv.extend_from_slice(&embedded);
+    }
+    let (mut num, mut den) = (0.0, 0.0);
+    for (v, target) in p.triangles.iter().zip(&p.targets) {
+        let w = 0.5 * signed_area2(*target).abs();
+        num += w * isometric_energy(*target, v.map(|i| p.uv[i as usize]));
+        den += w;
+    }
+    let energy = if den > 0.0 { num / den } else { 0.0 };
+    if energy.is_nan() || energy > opts.local_distortion {
+        return Err(Failure::Distortion);
+    }
+    for (i, &v) in r.verts.iter().enumerate() {
+        t.uv_pos[v as usize] = p.uv[i];
+    }
+    if no_overlap(t, chart_faces, r) { Ok(()) } else { Err(Failure::Overlap) }
+}
+
+/// Whether every triangle has orientation `sign` and a non-degenerate area.
+fn all_oriented(uv: &[[f64; 2]], triangles: &[[u32; 3]], sign: f64) -> bool {
+    triangles.iter().all(|v| signed_area2(v.map(|i| uv[i as usize])) * sign >= DEGENERATE_AREA2)
+}
+
+/// Whether no face of the region overlaps any face of its chart (`chart_faces`).
+fn no_overlap(t: &Topology, chart_faces: &[u32], r: &Region) -> bool {
+    let boxes: Vec<(u32, [f64; 4])> =
+        r.faces.iter().map(|&f| (f, bbox(&tri(t, f as usize)))).collect();
+    let Some(&(_, mut rb)) = boxes.first() else { return true };
+    for (_, b) in &boxes {
+        rb = [rb[0].min(b[0]), rb[1].min(b[1]), rb[2].max(b[2]), rb[3].max(b[3])];
+    }
+    for &g in chart_faces {
+        let g = g as usize;
+        let tg = tri(t, g);
+        let bg = bbox(&tg);
+        if !boxes_meet(&bg, &rb) {
+            continue;
+        }
+        for &(f, bf) in &boxes {
+            if f as usize == g || (r.in_region[g] && (g as u32) < f) || !boxes_meet(&bf, &bg) {
+                continue;
+            }
+            if triangles_overlap_beyond_noise(tri(t, f as usize), tg) {
+                return false;
+            }
+        }
+    }
+    true
+}
+
+/// Uniform-weight Tutte embedding of the free vertices (every free vertex at the mean of its edge
+/// neighbours) by conjugate gradients on each coordinate, from the current positions.
+#[allow(clippy::needless_range_loop)] // `d` picks the coordinate of every point, not one item.
+fn tutte(uv: &mut [[f64; 2]], fixed: &[bool], triangles: &[[u32; 3]], iterations: u32) {
+    let n = uv.len();
+    // Edge list (each triangle side once per triangle: interior edges weigh 2, which keeps every
+    // free vertex a convex combination of its neighbours).
+    let mut edges: Vec<(u32, u32)> = Vec::with_capacity(3 * triangles.len());
+    for tr in triangles {
+        for k in 0..3 {
+            edges.push((tr[k], tr[(k + 1) % 3]));
+        }
+    }
+    let mut degree = vec![0.0f64; n];
+    for &(a, b) in &edges {
+        degree[a as usize] += 1.0;
+        degree[b as usize] += 1.0;
+    }
+    // L x = 0 on free rows, x fixed elsewhere: A x_f = b with A = L_ff, b = −L_fb x_b.
+    let apply = |x: &[f64], out: &mut [f64]| {
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = if fixed[i] { 0.0 } else { degree[i] * x[i] };
+        }
+        for &(a, b) in &edges {
+            let (a, b) = (a as usize, b as usize);
+            if !fixed[a] && !fixed[b] {
+                out[a] -= x[b];
+                out[b] -= x[a];
+            }
+        }
+    };
+    for d in 0..2 {
+        let mut rhs = vec![0.0; n];
+        for &(a, b) in &edges {
+            let (a, b) = (a as usize, b as usize);
+            if !fixed[a] && fixed[b] {
+                rhs[a] += uv[b][d];
+            }
+            if !fixed[b] && fixed[a] {
+                rhs[b] += uv[a][d];
+            }
+        }
+        let mut x: Vec<f64> = (0..n).map(|i| if fixed[i] { 0.0 } else { uv[i][d] }).collect();
+        let mut ax = vec![0.0; n];
+        apply(&x, &mut ax);
+        let mut res: Vec<f64> =
+            (0..n).map(|i| if fixed[i] { 0.0 } else { rhs[i] - ax[i] }).collect();
+        let precond = |i: usize| if degree[i] > 0.0 { 1.0 / degree[i] } else { 0.0 };
+        let mut z: Vec<f64> = (0..n).map(|i| res[i] * precond(i)).collect();
+        let mut dir = z.clone();
+        let mut rz: f64 = res.iter().zip(&z).map(|(a, b)| a * b).sum();
+        let scale: f64 = rhs.iter().map(|v| v * v).sum::<f64>().max(1e-300);
+        let mut ad = vec![0.0; n];
+        for _ in 0..iterations {
+            if rz.abs() <= 1e-24 * scale {
+                break;
+            }
+            apply(&dir, &mut ad);
+            let dad: f64 = dir.iter().zip(&ad).map(|(a, b)| a * b).sum();
+            if dad <= 0.0 {
+                break;
+            }
+            let alpha = rz / dad;
+            for i in 0..n {
+                x[i] += alpha * dir[i];
+                res[i] -= alpha * ad[i];
+            }
+            for i in 0..n {
+                z[i] = res[i] * precond(i);
+            }
+            let rz_new: f64 = res.iter().zip(&z).map(|(a, b)| a * b).sum();
+            let beta = rz_new / rz;
+            rz = rz_new;
+            for i in 0..n {
+                dir[i] = z[i] + beta * dir[i];
+            }
+        }
+        for i in 0..n {
+            if !fixed[i] {
+                uv[i][d] = x[i];
+            }
+        }
+    }
+}
