@@ -265,6 +265,16 @@ fn root(uf: &mut [u32], mut x: u32) -> u32 {
     x
 }
 
+/// What every repair of one chart reads: the lists, the chart's faces, the anchor marks, the
+/// chart's orientation (+1 or −1) and the options.
+struct ChartCtx<'a> {
+    lists: &'a Lists,
+    faces: &'a [u32],
+    anchored: &'a [bool],
+    sign: f64,
+    opts: &'a UntangleOptions,
+}
+
 /// Scratch of one region's attempts, reused across regions.
 #[derive(Default)]
 struct Region {
@@ -334,7 +344,8 @@ pub fn untangle_charts(
             }
             report.regions += 1;
             let seed: Vec<u32> = groups[i..j].iter().map(|&(_, f)| f).collect();
-            match repair(t, &lists, faces, anchored, sign, &seed, &mut r, solver, opts) {
+            let ctx = ChartCtx { lists: &lists, faces, anchored, sign, opts };
+            match repair(t, &ctx, &seed, &mut r, solver) {
                 Ok(moved) => {
                     report.regions_repaired += 1;
                     report.faces_moved += moved;
@@ -353,17 +364,12 @@ pub fn untangle_charts(
 
 /// Tries to repair one region, growing it ring by ring; returns the faces moved on success, or
 /// why the last attempt failed.
-#[allow(clippy::too_many_arguments)]
 fn repair(
     t: &mut Topology,
-    lists: &Lists,
-    chart: &[u32],
-    anchored: &[bool],
-    sign: f64,
+    ctx: &ChartCtx,
     seed: &[u32],
     r: &mut Region,
     solver: &mut dyn LocalSolver,
-    opts: &UntangleOptions,
 ) -> Result<u64, Failure> {
     r.faces.clear();
     r.faces.extend_from_slice(seed);
@@ -371,9 +377,9 @@ fn repair(
         r.in_region[f as usize] = true;
     }
     let mut result = Err(Failure::NoFreeVertex);
-    for _ in 0..=opts.max_rings {
-        grow(t, lists, anchored, r);
-        result = attempt(t, lists, chart, sign, r, solver, opts).map(|()| r.faces.len() as u64);
+    for _ in 0..=ctx.opts.max_rings {
+        grow(t, ctx.lists, ctx.anchored, r);
+        result = attempt(t, ctx, r, solver).map(|()| r.faces.len() as u64);
         if result.is_ok() {
             break;
         }
@@ -405,13 +411,11 @@ fn grow(t: &Topology, lists: &Lists, anchored: &[bool], r: &mut Region) {
 /// it succeeds.
 fn attempt(
     t: &mut Topology,
-    lists: &Lists,
-    chart_faces: &[u32],
-    sign: f64,
+    ctx: &ChartCtx,
     r: &mut Region,
     solver: &mut dyn LocalSolver,
-    opts: &UntangleOptions,
 ) -> Result<(), Failure> {
+    let lists = ctx.lists;
     // Local vertices; a vertex is free when every face around it is in the region and it is on
     // no border side of the chart, so the region's outline stays where it is.
     r.verts.clear();
@@ -441,7 +445,7 @@ fn attempt(
     r.start.clear();
     r.start.extend(r.verts.iter().map(|&v| t.uv_pos[v as usize]));
     let result = if r.fixed.iter().any(|&x| !x) && r.fixed.iter().any(|&x| x) {
-        solve_region(t, chart_faces, sign, r, solver, opts)
+        solve_region(t, ctx, r, solver)
     } else {
         Err(Failure::NoFreeVertex)
     };
@@ -460,12 +464,11 @@ fn attempt(
 /// Tutte embedding, then the solver, then the checks; positions are written into `t`.
 fn solve_region(
     t: &mut Topology,
-    chart_faces: &[u32],
-    sign: f64,
+    ctx: &ChartCtx,
     r: &mut Region,
     solver: &mut dyn LocalSolver,
-    opts: &UntangleOptions,
 ) -> Result<(), Failure> {
+    let (sign, opts) = (ctx.sign, ctx.opts);
     let p = &mut r.problem;
     p.uv.clear();
     p.uv.extend_from_slice(&r.start);
@@ -514,7 +517,7 @@ fn solve_region(
     for (i, &v) in r.verts.iter().enumerate() {
         t.uv_pos[v as usize] = p.uv[i];
     }
-    if no_overlap(t, chart_faces, r) { Ok(()) } else { Err(Failure::Overlap) }
+    if no_overlap(t, ctx.faces, r) { Ok(()) } else { Err(Failure::Overlap) }
 }
 
 /// Whether every triangle has orientation `sign` and a non-degenerate area.

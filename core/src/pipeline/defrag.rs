@@ -256,18 +256,19 @@ pub fn defrag_with_progress(
         let (face_chart, unpacked) = packing_charts(&topo, &layout, model.sheets.len());
         let face_area_3d: Vec<f64> = model.face_ids().map(|f| area_3d(&model, f)).collect();
         let corner_vert: Vec<u32> = topo.corner_uv.iter().map(|v| v.0).collect();
-        let li = LayoutInput {
-            corner_vert: &corner_vert,
-            vert_uv: &topo.uv_pos,
-            orig_uv: &topo.orig_uv,
-            face_chart: &face_chart,
-            face_sheet: &topo.face_sheet,
-            face_area_3d: &face_area_3d,
-            n_charts: layout.n_charts,
-            input_sheet_sizes: &input_sheet_sizes,
-        };
+        let n = layout.n_charts;
         if let (Some(opts), Some(solver)) = (&cfg.untangle, untangle_solver.as_mut()) {
-            let anchored = anchor_faces(&li, &cfg.pack)?;
+            let anchored = anchor_faces(
+                &layout_input(
+                    &topo,
+                    &corner_vert,
+                    &face_chart,
+                    &face_area_3d,
+                    n,
+                    &input_sheet_sizes,
+                ),
+                &cfg.pack,
+            )?;
             untangled = Some(untangle_charts(
                 &mut topo,
                 &face_chart,
@@ -277,16 +278,8 @@ pub fn defrag_with_progress(
                 opts,
             ));
         }
-        let li = LayoutInput {
-            corner_vert: &corner_vert,
-            vert_uv: &topo.uv_pos,
-            orig_uv: &topo.orig_uv,
-            face_chart: &face_chart,
-            face_sheet: &topo.face_sheet,
-            face_area_3d: &face_area_3d,
-            n_charts: layout.n_charts,
-            input_sheet_sizes: &input_sheet_sizes,
-        };
+        let li =
+            layout_input(&topo, &corner_vert, &face_chart, &face_area_3d, n, &input_sheet_sizes);
         let packed = pack_layout(&li, packer.as_ref(), &cfg.pack)?;
         times.pack_ms = ms(t);
 
@@ -375,6 +368,27 @@ fn packing_charts(t: &Topology, layout: &MergedLayout, n_sheets: usize) -> (Vec<
         })
         .collect();
     (chart, unpacked)
+}
+
+/// The packing stage's view of the merged layout in `topo`.
+fn layout_input<'a>(
+    topo: &'a Topology,
+    corner_vert: &'a [u32],
+    face_chart: &'a [u32],
+    face_area_3d: &'a [f64],
+    n_charts: usize,
+    input_sheet_sizes: &'a [(u32, u32)],
+) -> LayoutInput<'a> {
+    LayoutInput {
+        corner_vert,
+        vert_uv: &topo.uv_pos,
+        orig_uv: &topo.orig_uv,
+        face_chart,
+        face_sheet: &topo.face_sheet,
+        face_area_3d,
+        n_charts,
+        input_sheet_sizes,
+    }
 }
 
 /// The 3D area of a face (relative to its first corner, so georeferenced offsets cost no
