@@ -111,6 +111,8 @@ pub fn detail_content(photos: &[TileStore], face_photo: &[u32], uv0: &[[f64; 2]]
                 std::mem::swap(&mut g, &mut next);
             }
         }
+        // The photo has been read whole; drop its pages before the next one is.
+        photo.release_all();
     }
     out
 }

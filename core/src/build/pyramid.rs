@@ -285,5 +285,8 @@ pub fn reduce_store(src: &TileStore, work_dir: &Path) -> Result<TileStore, Textu
         }
         j0 += rows;
     }
+    // Both images have been swept whole; neither needs to stay resident.
+    src.release_all();
+    dst.release_all();
     Ok(dst)
 }

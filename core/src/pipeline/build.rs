@@ -431,6 +431,7 @@ pub fn build(
         &photos,
         &geom,
     );
+    release(&photos);
     let mut fill = TileStore::create(&work_dir, FILL, FILL, format)?;
     for y in 0..FILL {
         for x in 0..FILL {
@@ -485,6 +486,8 @@ pub fn build(
     let out_tri = |f: usize| mappings[f].dst;
     let mut ring = Vec::new();
     fill_rings(&coarse, &out_tri, RING, &photos, &mut res.sheets, &covs, &mut ring);
+    release(&photos);
+    release(&res.sheets);
     times.texture_ms = ms(t);
 
     let t = Instant::now();
@@ -532,6 +535,7 @@ pub fn build(
         // Carry the smoothing corrections into the coarse rings.
         fill_rings(&coarse, &out_tri, RING, &photos, &mut res.sheets, &covs, &mut ring);
     }
+    release(&res.sheets);
     times.smoothing_ms = ms(t);
     drop(refs);
     drop(photos);
@@ -741,6 +745,15 @@ fn frequency_split(
         split_ms: ms(t),
     };
     (split, report)
+}
+
+/// Drops the resident pages of `stores` after a stage that read them at random (see
+/// [`TileStore::release_all`]): hundreds of photos sampled here and there would otherwise stay
+/// resident until the end of the run.
+fn release(stores: &[TileStore]) {
+    for s in stores {
+        s.release_all();
+    }
 }
 
 /// The Gaussian levels `l` of a photo with `wanted[l]` (l ≥ 1), finest first, by repeated
