@@ -11,6 +11,8 @@
 
 use std::time::Instant;
 
+use rayon::prelude::*;
+
 use crate::geometry::{Tri2, isometric_energy, signed_area2, triangles_overlap_beyond_noise};
 use crate::plugin::{LocalProblem, LocalSolver};
 use crate::topology::Topology;
@@ -232,6 +234,12 @@ fn overlapping_pairs(t: &Topology, faces: &[u32], mut found: impl FnMut(u32, u32
     }
 }
 
+/// The orientation of a chart: the sign of its total signed UV area (positive when zero).
+fn chart_sign(t: &Topology, faces: &[u32]) -> f64 {
+    let area: f64 = faces.iter().map(|&f| signed_area2(tri(t, f as usize))).sum();
+    if area < 0.0 { -1.0 } else { 1.0 }
+}
+
 /// The defects of one chart outside its anchor group: overlapping pairs and folded faces.
 fn defects(
     t: &Topology,
@@ -310,14 +318,27 @@ pub fn untangle_charts(
         local: vec![u32::MAX; t.uv_pos.len()],
         ..Region::default()
     };
-    for c in 0..n_charts {
+    // Finding the defects is most of the work on charts that have none: look for them in
+    // parallel first (read only, so the answer does not depend on the thread count), then
+    // repair the charts that have some one after another.
+    let dirty: Vec<bool> = {
+        let t = &*t;
+        (0..n_charts)
+            .into_par_iter()
+            .map_init(
+                || (Vec::new(), Vec::new()),
+                |(pairs, folds), c| {
+                    let faces = lists.chart(c);
+                    defects(t, faces, anchored, chart_sign(t, faces), pairs, folds);
+                    !(pairs.is_empty() && folds.is_empty())
+                },
+            )
+            .collect()
+    };
+    for c in (0..n_charts).filter(|&c| dirty[c]) {
         let faces = lists.chart(c);
-        let area: f64 = faces.iter().map(|&f| signed_area2(tri(t, f as usize))).sum();
-        let sign = if area < 0.0 { -1.0 } else { 1.0 };
+        let sign = chart_sign(t, faces);
         defects(t, faces, anchored, sign, &mut pairs, &mut folds);
-        if pairs.is_empty() && folds.is_empty() {
-            continue;
-        }
         report.overlapping_pairs += pairs.len() as u64;
         report.folded_faces += folds.len() as u64;
         // Regions: the defective faces outside the anchor group, joined through their pairs.

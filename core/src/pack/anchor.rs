@@ -9,7 +9,7 @@
 //! of the paper is applied (item 3); and the group also agrees on the sub-texel part of the
 //! translation and on the source sheet, so every face called preserved really is.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use crate::geometry::GridTransform;
@@ -174,7 +174,7 @@ pub(crate) fn best_group(faces: &mut [RigidFace], min_area: f64) -> Option<(Anch
     let n_ang = (2.0 * PI / ANGLE_TOL).floor() as i64;
     let mut groups: Vec<Anchor> = Vec::new();
     let mut member: Vec<u32> = Vec::with_capacity(faces.len());
-    let mut buckets: HashMap<Key, Vec<u32>> = HashMap::new();
+    let mut buckets: FxHashMap<Key, Vec<u32>> = FxHashMap::default();
     for f in faces.iter() {
         let own = Anchor::from_face(f.rigid, f.sheet, f.orig0, f.cur0, f.area);
         let k = key_of(&own);

@@ -322,19 +322,40 @@ pub fn anchor_faces(input: &LayoutInput, opts: &PackOptions) -> Result<Vec<bool>
     let vert_chart = validate(input, opts)?;
     let (faces, _) = chart_lists(input, &vert_chart);
     let mut marked = vec![false; input.face_chart.len()];
-    for c in 0..input.n_charts {
-        let fs = faces.of(c);
-        if fs.is_empty() {
-            continue;
-        }
-        let (mut rigid, chart_area) = rigid_faces(input, fs, opts);
-        if let Some((_, group)) = best_group(&mut rigid, opts.anchor_min_fraction * chart_area) {
+    for found in chart_anchors(input, &faces, opts) {
+        if let Some((_, group)) = found.best {
             for f in group {
                 marked[f as usize] = true;
             }
         }
     }
     Ok(marked)
+}
+
+/// The rigid faces of one chart (largest area first), the chart's 3-D area and its heaviest
+/// anchor group, if any covers enough of it.
+struct ChartAnchors {
+    rigid: Vec<RigidFace>,
+    min_area: f64,
+    best: Option<(Anchor, Vec<u32>)>,
+}
+
+/// [`ChartAnchors`] of every chart, found in parallel: each is a pure function of its chart,
+/// so the result does not depend on the thread count.
+fn chart_anchors(input: &LayoutInput, faces: &Csr, opts: &PackOptions) -> Vec<ChartAnchors> {
+    (0..input.n_charts)
+        .into_par_iter()
+        .map(|c| {
+            let fs = faces.of(c);
+            if fs.is_empty() {
+                return ChartAnchors { rigid: Vec::new(), min_area: 0.0, best: None };
+            }
+            let (mut rigid, chart_area) = rigid_faces(input, fs, opts);
+            let min_area = opts.anchor_min_fraction * chart_area;
+            let best = best_group(&mut rigid, min_area);
+            ChartAnchors { rigid, min_area, best }
+        })
+        .collect()
 }
 
 /// Packs the charts of `input` onto sheets with `packer`; see [`PackedLayout`] for what comes
@@ -360,7 +381,8 @@ pub fn pack_layout(
     let mut frame_uv = input.vert_uv.to_vec();
     let mut frames: Vec<Option<Frame>> = vec![None; input.n_charts];
     let mut scratch = Vec::new();
-    for (c, slot) in frames.iter_mut().enumerate() {
+    let anchors = chart_anchors(input, &faces, opts);
+    for ((c, slot), found) in frames.iter_mut().enumerate().zip(anchors) {
         let fs = faces.of(c);
         if fs.is_empty() {
             continue;
@@ -370,9 +392,7 @@ pub fn pack_layout(
             let (w, h) = (f.width, f.height);
             (w <= max_sheet.0 && h <= max_sheet.1) || (h <= max_sheet.0 && w <= max_sheet.1)
         };
-        let (mut rigid, chart_area) = rigid_faces(input, fs, opts);
-        let min_area = opts.anchor_min_fraction * chart_area;
-        let best = best_group(&mut rigid, min_area);
+        let ChartAnchors { mut rigid, min_area, best } = found;
         // The frame for one anchor group (claimed first) or for none, turned by `turn`.
         let mut frame_for = |group: Option<&(Anchor, Vec<u32>)>,
                              turn: FreeTurn,

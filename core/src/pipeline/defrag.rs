@@ -320,9 +320,15 @@ pub fn defrag_with_progress(
     let overlaps =
         cfg.metrics_overlaps.unwrap_or_else(|| overlaps_are_cheap(model.faces.len(), texels));
     let stats_opts = StatsOptions { overlaps };
-    let input_stats = atlas_stats(&model, &in_sizes, &stats_opts);
-    let written = super::load_model(output)?;
-    let output_stats = atlas_stats(&written, &super::sheet_sizes(&written), &stats_opts);
+    // The two sides are independent: measure them at once.
+    let (input_stats, output_stats) = rayon::join(
+        || atlas_stats(&model, &in_sizes, &stats_opts),
+        || {
+            super::load_model(output)
+                .map(|written| atlas_stats(&written, &super::sheet_sizes(&written), &stats_opts))
+        },
+    );
+    let output_stats = output_stats?;
     times.metrics_ms = ms(t);
     times.total_ms = ms(t_all);
     Ok(DefragReport {
