@@ -14,6 +14,8 @@ use scanatlas_core::plugin::{
     get_u64,
 };
 
+use rayon::prelude::*;
+
 use super::{SplitMix64, used_area};
 
 /// The registered name of this packer.
@@ -30,7 +32,9 @@ pub struct HorizonPacker {
     pub max_shuffles: usize,
     /// Start each sheet no wider than a square holding the remaining items needs, so a small
     /// atlas trims to a square instead of a strip; it grows by 10% steps when an item does not
-    /// fit.
+    /// fit. A pass starting at the full sheet width is run too (in parallel), and the smaller
+    /// packing kept: on an atlas of about one sheet the square start strands charts in the
+    /// strip its growth steps leave (venus: 15.68 M texels against 15.37 M from the full width).
     pub square: bool,
 }
 
@@ -294,6 +298,7 @@ impl HorizonPacker {
     /// of sheets used.
     fn trial(
         &self,
+        square: bool,
         prepared: &[Vec<Profile>],
         areas: &[u64],
         order: &[u32],
@@ -305,9 +310,9 @@ impl HorizonPacker {
         for &item in order {
             let profs = &prepared[item as usize];
             let (s, (turn, x, y)) =
-                self.place_item(&mut sheets, profs, remaining, max_sheet).ok_or_else(|| {
-                    PackerError::Failed(format!("item {item} does not fit an empty sheet"))
-                })?;
+                self.place_item(square, &mut sheets, profs, remaining, max_sheet).ok_or_else(
+                    || PackerError::Failed(format!("item {item} does not fit an empty sheet")),
+                )?;
             placements[item as usize] = Placement { sheet: s as u32, quarter_turns: turn, x, y };
             remaining -= areas[item as usize];
         }
@@ -319,6 +324,7 @@ impl HorizonPacker {
     /// the item fits no empty sheet, which the caller has ruled out.
     fn place_item(
         &self,
+        square: bool,
         sheets: &mut Vec<Sheet>,
         profs: &[Profile],
         remaining: u64,
@@ -335,7 +341,7 @@ impl HorizonPacker {
                 }
             }
         }
-        let (w0, h0) = if self.square {
+        let (w0, h0) = if square {
             // A square that holds the remaining items at the assumed density, but no smaller
             // than this item needs.
             let side =
@@ -380,11 +386,25 @@ impl Packer for HorizonPacker {
         order.sort_by_key(|&i| (std::cmp::Reverse(areas[i as usize]), i));
 
         let blank = Placement { sheet: 0, quarter_turns: 0, x: 0, y: 0 };
-        let mut best = vec![blank; n];
-        let mut best_sheets = self.trial(&prepared, &areas, &order, max_sheet, &mut best)?;
         let score = |placements: &[Placement], sheets: usize| {
             (sheets, used_area(items, placements, &order, sheets))
         };
+        // The square start and the full-width start, side by side; the first of equals wins, so
+        // the choice is a pure function of the input.
+        let starts: &[bool] = if self.square { &[true, false] } else { &[false] };
+        let passes: Vec<(bool, Vec<Placement>, usize)> = starts
+            .par_iter()
+            .map(|&square| {
+                let mut placements = vec![blank; n];
+                let sheets =
+                    self.trial(square, &prepared, &areas, &order, max_sheet, &mut placements)?;
+                Ok((square, placements, sheets))
+            })
+            .collect::<Result<_, PackerError>>()?;
+        let (square, mut best, mut best_sheets) = passes
+            .into_iter()
+            .reduce(|a, b| if score(&b.1, b.2) < score(&a.1, a.2) { b } else { a })
+            .ok_or_else(|| PackerError::Failed("no packing pass ran".into()))?;
         if order.len() > 1 && order.len() < self.shuffle_below {
             let largest = areas[order[0] as usize];
             let big = order.iter().filter(|&&i| 2 * areas[i as usize] >= largest).count();
@@ -397,7 +417,7 @@ impl Packer for HorizonPacker {
             for _ in 0..tries {
                 // Cumulative shuffles of the first K, as the reference does, but seeded.
                 rng.shuffle(&mut trial[..k]);
-                let sheets = self.trial(&prepared, &areas, &trial, max_sheet, &mut cand)?;
+                let sheets = self.trial(square, &prepared, &areas, &trial, max_sheet, &mut cand)?;
                 let s = score(&cand, sheets);
                 if s < best_score {
                     best_score = s;

@@ -137,3 +137,27 @@ fn a_thousand_mixed_charts_on_large_sheets() {
     let s = density(&blobs, &run(&SkylinePacker, &blobs, (2048, 2048)));
     assert!(h >= s, "horizon {h} vs skyline {s}");
 }
+
+/// The square start never loses to the full-width start: both passes run and the smaller
+/// packing is kept, so on every instance the default packs into at most the sheets and the
+/// trimmed area of `square: false` (an atlas of about one sheet packed square first used to
+/// strand charts in the strips of its growth steps).
+#[test]
+fn the_default_horizon_is_never_worse_than_the_full_width_start() {
+    let wide = HorizonPacker { square: false, ..HorizonPacker::default() };
+    for seed in 0..12u64 {
+        let items = random_items(seed, 150 + 40 * seed as usize, 48);
+        let all: Vec<u32> = (0..items.len() as u32).collect();
+        let score = |o: &PackOutput| {
+            (o.sheets.len(), super::used_area(&items, &o.placements, &all, o.sheets.len()))
+        };
+        let a = run(&HorizonPacker::default(), &items, (512, 512));
+        let b = run(&wide, &items, (512, 512));
+        assert!(
+            score(&a) <= score(&b),
+            "seed {seed}: default {:?} vs wide {:?}",
+            score(&a),
+            score(&b)
+        );
+    }
+}
