@@ -277,7 +277,10 @@ fn a_chart_of_zero_area_faces_joins_its_neighbour_outside_it() {
     assert_eq!(t0.report.charts, 2);
     assert!(t0.face_flags[4].has(crate::topology::FrozenReasons::ZERO_AREA_3D));
     let (t, r) = run(&m, &MergeOptions::default());
-    assert_eq!(r.zero_area, ZeroAreaReport { charts: 1, charts_joined: 1, faces_joined: 1 });
+    assert_eq!(
+        r.zero_area,
+        ZeroAreaReport { charts: 1, charts_joined: 1, faces_joined: 1, faces_joined_at_corner: 0 }
+    );
     assert_eq!(r.charts_after, 1, "{r:?}");
     assert_eq!(t.face_chart[4], t.face_chart[0]);
     // The independent check: the written-back model is one edge-connected UV component, and
@@ -301,16 +304,113 @@ fn a_chart_of_zero_area_faces_joins_its_neighbour_outside_it() {
 }
 
 #[test]
-fn a_zero_area_face_that_would_overlap_stays_in_its_chart() {
+fn a_sliver_whose_edge_placement_would_overlap_joins_at_a_corner() {
     let m = grid_and_sliver(false);
     let (t, r) = run(&m, &MergeOptions::default());
-    assert_eq!(r.zero_area, ZeroAreaReport { charts: 1, charts_joined: 0, faces_joined: 0 });
-    assert_eq!(r.charts_after, 2);
-    assert_ne!(t.face_chart[4], t.face_chart[0]);
+    let joined =
+        ZeroAreaReport { charts: 1, charts_joined: 1, faces_joined: 1, faces_joined_at_corner: 1 };
+    assert_eq!(r.zero_area, joined);
+    assert_eq!(t.face_chart[4], t.face_chart[0]);
     let back = merged_model(&m, &t);
-    let uv = back.faces[4].uv.expect("uvs").map(|u| back.uvs[u.idx()]);
-    let orig = m.faces[4].uv.expect("uvs").map(|u| m.uvs[u.idx()]);
+    let tri = |f: usize| {
+        let uv = back.faces[f].uv.expect("uvs");
+        uv.map(|u| back.uvs[u.idx()].map(|x| x * f64::from(SHEET)))
+    };
+    for f in 0..4 {
+        assert!(!crate::geometry::triangles_overlap(tri(4), tri(f)), "overlaps face {f}");
+    }
+}
+
+/// A 2 × 2 grid (inner vertex 4) and a cap at that inner vertex, as in [`grid_and_cap`]: every
+/// turn of the cap around vertex 4 lies over the grid.
+fn inner_cap() -> Model {
+    let mut p = Vec::new();
+    for y in 0..3 {
+        for x in 0..3 {
+            p.push([f64::from(x), f64::from(y), 0.0]);
+        }
+    }
+    p.push([1.0, 1.0, 0.5]);
+    let mut m = model_with(p);
+    let tex = |v: u32, m: &Model| {
+        let q = m.positions[v as usize];
+        [20.0 + 4.0 * q[0], 20.0 + 4.0 * q[1]]
+    };
+    for (x, y) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+        let v = |dx: u32, dy: u32| 3 * (y + dy) + x + dx;
+        for f in [[v(0, 0), v(1, 0), v(1, 1)], [v(0, 0), v(1, 1), v(0, 1)]] {
+            let t = f.map(|v| tex(v, &m));
+            add_face(&mut m, f, t);
+        }
+    }
+    add_face(&mut m, [4, 9, 9], [[200.0, 200.0], [203.0, 200.0], [201.5, 2.5 + 200.0]]);
+    m
+}
+
+#[test]
+fn a_cap_that_would_overlap_at_every_turn_stays_in_its_chart() {
+    let m = inner_cap();
+    let (t, r) = run(&m, &MergeOptions::default());
+    let none =
+        ZeroAreaReport { charts: 1, charts_joined: 0, faces_joined: 0, faces_joined_at_corner: 0 };
+    assert_eq!(r.zero_area, none);
+    assert_eq!(r.charts_after, 2);
+    assert_ne!(t.face_chart[8], t.face_chart[0]);
+    let back = merged_model(&m, &t);
+    let uv = back.faces[8].uv.expect("uvs").map(|u| back.uvs[u.idx()]);
+    let orig = m.faces[8].uv.expect("uvs").map(|u| m.uvs[u.idx()]);
     assert_eq!(uv, orig, "its UVs are untouched");
+}
+
+/// The grid of [`grid_and_sliver`] and a cap that shares no edge with anything: its corners are
+/// the grid's vertex 4 and twice a vertex above it, so it has zero 3D area and its only side is
+/// walked both ways.
+fn grid_and_cap() -> Model {
+    let mut m = grid_and_sliver(true);
+    m.faces.pop();
+    m.positions.push([1.0, 1.0, 0.5]);
+    let cap = [4, 7, 7];
+    add_face(&mut m, cap, [[200.0, 200.0], [204.0, 200.0], [202.0, 203.0]]);
+    m
+}
+
+#[test]
+fn a_cap_that_shares_no_edge_joins_at_a_corner_with_its_own_shape() {
+    let m = grid_and_cap();
+    let t0 = prepare(&m);
+    assert_eq!(t0.report.charts, 2);
+    assert!(t0.face_flags[4].has(crate::topology::FrozenReasons::ZERO_AREA_3D));
+    let (t, r) = run(&m, &MergeOptions::default());
+    let joined =
+        ZeroAreaReport { charts: 1, charts_joined: 1, faces_joined: 1, faces_joined_at_corner: 1 };
+    assert_eq!(r.zero_area, joined);
+    assert_eq!(r.charts_after, 1, "{r:?}");
+    // The independent check on the written-back model: the cap's first corner has the UV of
+    // vertex 4 in the grid, its shape is the original one, and it overlaps no grid face.
+    let back = merged_model(&m, &t);
+    let tri = |f: usize| {
+        let uv = back.faces[f].uv.expect("uvs");
+        uv.map(|u| back.uvs[u.idx()].map(|x| x * f64::from(SHEET)))
+    };
+    let cap = tri(4);
+    let at_4 = tri(0)[2];
+    assert_eq!(cap[0], at_4, "the cap hangs off the grid's vertex 4");
+    let side = |t: [[f64; 2]; 3], i: usize| {
+        let (a, b) = (t[i], t[(i + 1) % 3]);
+        (b[0] - a[0]).hypot(b[1] - a[1])
+    };
+    let orig = [[200.0, 200.0], [204.0, 200.0], [202.0, 203.0]];
+    for i in 0..3 {
+        assert!((side(cap, i) - side(orig, i)).abs() < 1e-9, "side {i}: {cap:?}");
+    }
+    assert!(crate::geometry::signed_area2(cap) > 1.0, "{cap:?}");
+    for f in 0..4 {
+        assert!(!crate::geometry::triangles_overlap(cap, tri(f)), "overlaps face {f}");
+    }
+    assert_eq!(back.faces.len(), m.faces.len());
+    for (a, b) in back.faces.iter().zip(&m.faces) {
+        assert_eq!(a.v, b.v);
+    }
 }
 
 #[test]

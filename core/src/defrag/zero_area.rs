@@ -11,10 +11,17 @@
 //! UV shape (scaled to the neighbour's edge length, mirrored if needed so that its orientation is
 //! the chart's; a zero-UV-area face stays degenerate, on the edge).
 //!
+//! A face with no such neighbour across any edge (on venus: 66 single faces whose corners repeat a
+//! position, so none of their edges is shared) joins at a corner instead: the corner takes the UV
+//! vertex of a face of positive area at the same 3D position, and the face keeps its original UV
+//! shape and size (turned in steps of 45° until it fits, mirrored to the chart's orientation),
+//! hanging off that vertex. It then shares a UV vertex with the chart, which is what makes two
+//! faces one chart for the evaluator and for the packer alike.
+//!
 //! The placement is checked like a merge: the face must not fold and must not overlap any face of
-//! the chart it joins. Faces whose every edge fails stay where they are, and so do faces with no
-//! neighbour across an edge (a cap folded onto itself). The merge operations never touch these
-//! faces (they are frozen), so this pass changes nothing but their own UVs.
+//! the chart it joins. Faces whose every edge and corner fails stay where they are. The merge
+//! operations never touch these faces (they are frozen), so this pass changes nothing but their
+//! own UVs.
 
 use super::state::{Engine, orig_tri};
 use crate::geometry::{
@@ -30,6 +37,10 @@ const DEGENERATE_AREA2: f64 = 2e-6;
 /// a face attached in an earlier pass.
 const PASSES: usize = 4;
 
+/// Turns tried for a face joining at a corner: the original direction and seven more in steps
+/// of 45°.
+const CORNER_TURNS: usize = 8;
+
 /// What the pass did, for the run report.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct ZeroAreaReport {
@@ -38,6 +49,8 @@ pub struct ZeroAreaReport {
     /// Of those, charts whose every face joined another chart.
     pub charts_joined: u64,
     pub faces_joined: u64,
+    /// Of the faces joined, those that joined at a corner (no edge join fitted).
+    pub faces_joined_at_corner: u64,
 }
 
 impl Engine<'_> {
@@ -82,9 +95,161 @@ impl Engine<'_> {
                 break;
             }
         }
+        // Faces left join at a corner, through the faces of positive-area charts that have a
+        // corner at one of their positions (listed once, sorted by position, then corner).
+        if !pending.is_empty() {
+            let mut wanted = vec![false; self.t.n_positions];
+            for &f in &pending {
+                for k in 0..3 {
+                    wanted[self.t.corner_pos[3 * f as usize + k].idx()] = true;
+                }
+            }
+            let mut at_pos: Vec<(u32, u32)> = Vec::new();
+            for (c, p) in self.t.corner_pos.iter().enumerate() {
+                let g = c / 3;
+                if wanted[p.idx()]
+                    && host_chart[self.t.face_chart[g].idx()]
+                    && !zero_area(self, g as u32)
+                    && !self.t.face_flags[g].is_isolated()
+                {
+                    at_pos.push((p.0, c as u32));
+                }
+            }
+            at_pos.sort_unstable();
+            for &f in &pending {
+                if self.join_face_at_corner(f, &at_pos) {
+                    report.faces_joined += 1;
+                    report.faces_joined_at_corner += 1;
+                }
+            }
+        }
         report.charts_joined =
             source.iter().filter(|c| self.chart_faces[c.idx()].is_empty()).count() as u64;
         report
+    }
+
+    /// Tries the corners of face `f` in order against the host corners at the same position
+    /// (`at_pos`: (position, corner) pairs, sorted) and each of their UV vertices once; joins
+    /// the first placement that neither folds nor overlaps the chart it joins.
+    fn join_face_at_corner(&mut self, f: u32, at_pos: &[(u32, u32)]) -> bool {
+        let fu = f as usize;
+        for k in 0..3 {
+            let p = self.t.corner_pos[3 * fu + k].0;
+            let start = at_pos.partition_point(|&(q, _)| q < p);
+            let mut tried: Vec<UvVertId> = Vec::new();
+            for &(q, c) in &at_pos[start..] {
+                if q != p {
+                    break;
+                }
+                let g = c as usize / 3;
+                let u = self.t.corner_uv[c as usize];
+                if self.t.face_sheet[g] != self.t.face_sheet[fu] || tried.contains(&u) {
+                    continue;
+                }
+                tried.push(u);
+                let chart = self.t.face_chart[g];
+                if let Some(tri) = self.place_at_corner(fu, k, u, chart) {
+                    self.attach_at_corner(f, k, u, tri, chart);
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
+    /// Face `f` in its original UV shape with corner `k` on UV vertex `u`, turned by the first
+    /// multiple of 45° (and mirrored when needed) that keeps the orientation of `chart` and
+    /// overlaps none of its faces; `None` when no turn fits.
+    fn place_at_corner(&mut self, f: usize, k: usize, u: UvVertId, chart: ChartId) -> Option<Tri2> {
+        let o = orig_tri(self.t, f);
+        let a = self.t.uv_pos[u.idx()];
+        let sign = if self.t.charts[chart.idx()].area_signed < 0.0 { -1.0 } else { 1.0 };
+        // Mirror (negate y) when the original winds against the chart.
+        let mirror = signed_area2(o) * sign < 0.0;
+        let degenerate = signed_area2(o).abs() < DEGENERATE_AREA2;
+        for turn in 0..CORNER_TURNS {
+            let th = turn as f64 * std::f64::consts::TAU / CORNER_TURNS as f64;
+            let (c, s) = (th.cos(), th.sin());
+            let mut tri: Tri2 = [[0.0; 2]; 3];
+            for j in 0..3 {
+                let (dx, mut dy) = (o[j][0] - o[k][0], o[j][1] - o[k][1]);
+                if mirror {
+                    dy = -dy;
+                }
+                tri[j] = [a[0] + c * dx - s * dy, a[1] + s * dx + c * dy];
+            }
+            tri[k] = a;
+            if !tri.iter().flatten().all(|x| x.is_finite())
+                || (!degenerate && signed_area2(tri) * sign < DEGENERATE_AREA2)
+            {
+                continue;
+            }
+            self.candidates.clear();
+            self.grid.query(tri_bbox(&tri), &mut self.candidates);
+            let clear = (0..self.candidates.len()).all(|j| {
+                let s = self.candidates[j] as usize;
+                s == f || self.t.face_chart[s] != chart || !overlap(tri, self.tri(s))
+            });
+            if clear {
+                return Some(tri);
+            }
+        }
+        None
+    }
+
+    /// Moves face `f` into `chart`: corner `k` on `u`, the other two on new UV vertices at
+    /// `tri`'s corners. All three sides stay borders. Keeps the border length, the energy sums,
+    /// the chart lists and the grid up to date.
+    fn attach_at_corner(&mut self, f: u32, k: usize, u: UvVertId, tri: Tri2, chart: ChartId) {
+        let fu = f as usize;
+        let before = self.face_border_len(fu);
+        for h in 3 * fu..3 * fu + 3 {
+            let t = self.t.he_uv_twin[h];
+            if !t.is_none() {
+                self.t.he_uv_twin[t.idx()] = HalfEdgeId::NONE;
+                self.t.he_uv_twin[h] = HalfEdgeId::NONE;
+            }
+        }
+        self.t.corner_uv[3 * fu + k] = u;
+        for j in [(k + 1) % 3, (k + 2) % 3] {
+            let v = UvVertId::from_usize(self.t.uv_pos.len());
+            self.t.uv_pos.push(tri[j]);
+            self.t.uv_vpos.push(self.t.corner_pos[3 * fu + j]);
+            self.t.uv_chart.push(chart);
+            self.t.corner_uv[3 * fu + j] = v;
+        }
+        self.border_len += self.face_border_len(fu) - before;
+        self.move_face(f, chart);
+    }
+
+    /// The UV length of the border sides of face `f` and of the sides across its UV twins,
+    /// each counted once whichever chart it is in.
+    fn face_border_len(&self, f: usize) -> f64 {
+        let mut len = 0.0;
+        for h in 3 * f..3 * f + 3 {
+            let t = self.t.he_uv_twin[h];
+            if t.is_none() {
+                len += self.half_edge_len(h);
+            } else if self.t.he_uv_twin[t.idx()].is_none() {
+                len += self.half_edge_len(t.idx());
+            }
+        }
+        len
+    }
+
+    /// Face `f`'s chart lists, energy, area and grid entry after its UVs moved into `chart`.
+    fn move_face(&mut self, f: u32, chart: ChartId) {
+        let fu = f as usize;
+        let old = self.t.face_chart[fu];
+        self.chart_faces[old.idx()].retain(|&g| g != f);
+        self.t.face_chart[fu] = chart;
+        self.chart_faces[chart.idx()].push(f);
+        let tri = self.tri(fu);
+        let energy = self.face_weight[fu] * isometric_energy(orig_tri(self.t, fu), tri);
+        self.energy_num += energy - self.face_energy[fu];
+        self.face_energy[fu] = energy;
+        self.face_area2[fu] = signed_area2(tri);
+        self.grid.insert(f, &tri);
     }
 
     /// Tries the edges of zero-area face `f` in corner order against the faces across each of
@@ -227,17 +392,7 @@ impl Engine<'_> {
             after += border(self, t.idx());
         }
         self.border_len += after - before;
-
-        let old = self.t.face_chart[fu];
-        self.chart_faces[old.idx()].retain(|&g| g != f);
-        self.t.face_chart[fu] = chart;
-        self.chart_faces[chart.idx()].push(f);
-        let tri = self.tri(fu);
-        let energy = self.face_weight[fu] * isometric_energy(orig_tri(self.t, fu), tri);
-        self.energy_num += energy - self.face_energy[fu];
-        self.face_energy[fu] = energy;
-        self.face_area2[fu] = signed_area2(tri);
-        self.grid.insert(f, &tri);
+        self.move_face(f, chart);
     }
 
     /// The UV length of half-edge `h` in the current layout.
