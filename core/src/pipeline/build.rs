@@ -566,10 +566,19 @@ pub fn build(
         write_image(store, &p, &enc)?;
         sheet_paths.push(p);
     }
+    // Unseen faces share the fill triangle for texturing, but in the output each of them gets
+    // the triangle's centroid at all three corners: a zero-area UV that reads the fill colour,
+    // instead of dozens of faces stacked on one triangle (overlapping UVs).
+    let mut out_uv = packed.vert_uv.clone();
+    if !unseen.is_empty() {
+        let k = fill_base as usize;
+        let c = [0, 1].map(|d| (out_uv[k][d] + out_uv[k + 1][d] + out_uv[k + 2][d]) / 3.0);
+        out_uv[k..k + 3].fill(c);
+    }
     let out_model = output_model(
         &model,
         &corner_vert,
-        &packed.vert_uv,
+        &out_uv,
         &packed.face_sheet,
         &packed.sheet_sizes,
         &sheet_paths,
@@ -909,6 +918,7 @@ fn smooth(
             let uv = [0, 1, 2].map(|q| out_uv(f, q));
             let (pa, pb) =
                 (positions[tris[f][k] as usize], positions[tris[f][(k + 1) % 3] as usize]);
+            let own = chart_camera[c] as usize;
             let ea = uv[k];
             let eb = uv[(k + 1) % 3];
             let len = ((eb[0] - ea[0]).powi(2) + (eb[1] - ea[1]).powi(2)).sqrt();
@@ -920,9 +930,17 @@ fn smooth(
                 let corr = if same_photo {
                     [0.0; 3]
                 } else {
+                    // Both photos are read at the same point of the edge, which each of them
+                    // sees (it bounds a face of each chart). Reading this chart's side inside
+                    // the face instead (where its correction is fixed) would compare points
+                    // 0.75 texels apart, a difference of detail, not of lighting; and reading
+                    // the neighbour's photo there would look past its visibility horizon, which
+                    // a chart border often is.
                     let Some(po) = cams[other].project_texel(x) else { continue };
+                    let Some(pm) = cams[own].project_texel(x) else { continue };
                     let po = to_level(po, usize::from(chart_level[gc]), cams[other].intr.height);
-                    let mine = smoothing::sample(store, q);
+                    let pm = to_level(pm, usize::from(chart_level[c]), cams[own].intr.height);
+                    let mine = smoothing::sample(&photos[chart_sheet[c] as usize], pm);
                     let theirs = smoothing::sample(&photos[chart_sheet[gc] as usize], po);
                     [0, 1, 2].map(|d| 0.5 * (theirs[d] - mine[d]))
                 };
