@@ -22,7 +22,6 @@ pub fn run(args: &SynthRigArgs, quiet: bool) -> Result<()> {
         k1: args.k1,
         gain_spread: args.gain_spread,
         seed: args.seed,
-        ..RigParams::default()
     };
     let out = generate_rig(&p, &args.out_dir)?;
     if !quiet {
