@@ -46,8 +46,12 @@ pub enum Command {
     Plugins(PluginsArgs),
     /// Builds a texture atlas from registered photographs (projective texture atlas).
     Build(BuildArgs),
-    /// Writes a synthetic photo rig (mesh, photos, COLMAP text/binary, Bundler) with known colour.
+    /// Writes a synthetic photo rig (mesh, photos, COLMAP text/binary, Bundler, MeshLab project)
+    /// with known colour.
     SynthRig(SynthRigArgs),
+    /// Scores any textured model against a synthetic rig: PSNR against the true colour, seam
+    /// colour jump, texel density, UV defects.
+    RigScore(RigScoreArgs),
 }
 
 #[derive(Debug, Args)]
@@ -99,8 +103,29 @@ pub struct SynthRigArgs {
     /// has (what the build's frequency-based splitting saves texels on).
     #[arg(long, default_value_t = 0.0, value_name = "F")]
     pub smooth_regions: f64,
+    /// Largest per-channel exposure gain deviation of a photo from 1 (0.12: gains 0.88 to 1.12).
+    #[arg(long, default_value_t = 0.12)]
+    pub gain_spread: f64,
+    /// Radial distortion k1 of every other photo (0: none; MeshLab's project is exact only then).
+    #[arg(long, default_value_t = -0.04, allow_negative_numbers = true)]
+    pub k1: f64,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+}
+
+#[derive(Debug, Args)]
+pub struct RigScoreArgs {
+    /// The rig folder written by `synth-rig` (with its rig.json).
+    #[arg(long, value_name = "RIG_DIR")]
+    pub rig: PathBuf,
+    /// The textured model to score (.obj, .gltf, .glb, .ply).
+    pub model: PathBuf,
+    /// Print the figures as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Folder for the temporary tile files (default: the system's temporary folder).
+    #[arg(long, value_name = "DIR")]
+    pub work_dir: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]

@@ -19,6 +19,7 @@
 
 mod charts;
 mod overlap;
+pub mod seam;
 mod stats;
 mod weld;
 
@@ -250,6 +251,23 @@ pub fn atlas_stats(
         overlap_texels,
         overlap_face_pairs,
     }
+}
+
+/// The edge chart of every face, as [`atlas_stats`] groups faces into `charts_edge`: the label is
+/// the lowest face index of the chart (faces sharing a UV edge, UV vertices welded by position,
+/// sheet and exact UV), so two faces are in one chart exactly when their labels are equal.
+///
+/// # Panics
+///
+/// Under the same conditions as [`atlas_stats`].
+pub fn edge_chart_labels(model: &Model, sheet_sizes: &[Option<(u32, u32)>]) -> Vec<u32> {
+    let prep = stats::Prep::new(model, sheet_sizes);
+    let (pid, n_pid) = weld::weld_positions(&model.positions);
+    let fw = weld::wedge_pids(model, &pid);
+    drop(pid);
+    let uvv = weld::uv_vertices(&prep, &fw, n_pid);
+    let mut edges = charts::uv_edges(&prep, &uvv.uvid, uvv.count);
+    edges.charts.flatten()
 }
 
 /// Atlas solidity [MPCT20] as in evaluate.py: the perimeter of the circle enclosing the UV area,

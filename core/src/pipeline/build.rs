@@ -20,6 +20,7 @@ use crate::build::visibility::{self, VisibilityOptions};
 use crate::build::{BuildError, read_rig};
 use crate::index::{MaterialId, UvId};
 use crate::io::WriteOptions;
+use crate::metrics::seam::{Seam, corner_of, inside_point, seam_jump};
 use crate::model::{ImageSource, Model, Origin};
 use crate::pack::{LayoutInput, PackOptions, PackReport, pack_layout};
 use crate::plugin::{Params, Registry};
@@ -506,12 +507,17 @@ pub fn build(
             cam(sm.f) != cam(sm.g)
         })
         .collect();
-    let face_level = |f: usize| match sub.face_sub[f] {
-        NONE => 0,
-        s => sub.sub_level[s as usize],
+    // 0.75 of a photo pixel: a coarse sub-chart is sampled at the same surface distance from
+    // the seam as a full-resolution one.
+    let inset = |f: usize| {
+        let level = match sub.face_sub[f] {
+            NONE => 0,
+            s => sub.sub_level[s as usize],
+        };
+        0.75 / f64::from(1u32 << level)
     };
     let seam_jump_before =
-        seam_jump(&photo_seams, &tris, &packed.face_sheet, &face_level, &out_uv, &res.sheets);
+        seam_jump(&photo_seams, &tris, &packed.face_sheet, &inset, &out_uv, &res.sheets);
     let mut sweeps = 0u64;
     if cfg.smoothing && !seams.is_empty() {
         sweeps = smooth(
@@ -530,7 +536,7 @@ pub fn build(
         );
     }
     let seam_jump_after =
-        seam_jump(&photo_seams, &tris, &packed.face_sheet, &face_level, &out_uv, &res.sheets);
+        seam_jump(&photo_seams, &tris, &packed.face_sheet, &inset, &out_uv, &res.sheets);
     if sweeps > 0 && !coarse.is_empty() {
         // Carry the smoothing corrections into the coarse rings.
         fill_rings(&coarse, &out_tri, RING, &photos, &mut res.sheets, &covs, &mut ring);
@@ -564,10 +570,19 @@ pub fn build(
         write_image(store, &p, &enc)?;
         sheet_paths.push(p);
     }
+    // Unseen faces share the fill triangle for texturing, but in the output each of them gets
+    // the triangle's centroid at all three corners: a zero-area UV that reads the fill colour,
+    // instead of dozens of faces stacked on one triangle (overlapping UVs).
+    let mut out_uv = packed.vert_uv.clone();
+    if !unseen.is_empty() {
+        let k = fill_base as usize;
+        let c = [0, 1].map(|d| (out_uv[k][d] + out_uv[k + 1][d] + out_uv[k + 2][d]) / 3.0);
+        out_uv[k..k + 3].fill(c);
+    }
     let out_model = output_model(
         &model,
         &corner_vert,
-        &packed.vert_uv,
+        &out_uv,
         &packed.face_sheet,
         &packed.sheet_sizes,
         &sheet_paths,
@@ -814,15 +829,6 @@ fn fill_colour(
     if n == 0.0 { [0.5; 3] } else { s.map(|v| v / n) }
 }
 
-/// A frontier edge: face `f`'s corners `a → b` (local indices), shared with face `g` of
-/// another chart.
-#[derive(Clone, Copy)]
-struct Seam {
-    f: u32,
-    k: u8,
-    g: u32,
-}
-
 fn frontier_edges(tris: &[[u32; 3]], adj: &[[u32; 3]], face_chart: &[u32]) -> Vec<Seam> {
     let mut out = Vec::new();
     for (f, a) in adj.iter().enumerate() {
@@ -838,62 +844,6 @@ fn frontier_edges(tris: &[[u32; 3]], adj: &[[u32; 3]], face_chart: &[u32]) -> Ve
         }
     }
     out
-}
-
-/// The local corner of face `g` holding mesh vertex `v`.
-fn corner_of(t: &[u32; 3], v: u32) -> usize {
-    t.iter().position(|&x| x == v).unwrap_or(0)
-}
-
-/// A point of face `f`'s output triangle at parameter `s` along its edge `k`, moved `inset`
-/// texels (at most a third of the way) towards the opposite corner, so it samples the face itself
-/// and not the neighbour's gutter.
-fn inside_point(uv: [[f64; 2]; 3], k: usize, s: f64, inset: f64) -> [f64; 2] {
-    let (a, b, o) = (uv[k], uv[(k + 1) % 3], uv[(k + 2) % 3]);
-    let e = [a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1])];
-    let d = [o[0] - e[0], o[1] - e[1]];
-    let len = (d[0] * d[0] + d[1] * d[1]).sqrt().max(1e-12);
-    let t = (inset / len).min(1.0 / 3.0);
-    [e[0] + t * d[0], e[1] + t * d[1]]
-}
-
-/// The colour jump across `seams`. Each side is sampled 0.75 full-resolution texels inside its
-/// face (`face_level` scales the inset), so a coarse sub-chart is sampled at the same surface
-/// distance from the seam as a full-resolution one.
-fn seam_jump(
-    seams: &[Seam],
-    tris: &[[u32; 3]],
-    face_sheet: &[u32],
-    face_level: &dyn Fn(usize) -> u8,
-    out_uv: &dyn Fn(usize, usize) -> [f64; 2],
-    sheets: &[TileStore],
-) -> f64 {
-    let inset = |f: usize| 0.75 / f64::from(1u32 << face_level(f));
-    let mut sum = 0.0;
-    let mut n = 0.0;
-    for sm in seams {
-        let (f, g, k) = (sm.f as usize, sm.g as usize, sm.k as usize);
-        let (va, vb) = (tris[f][k], tris[f][(k + 1) % 3]);
-        let kg = corner_of(&tris[g], vb);
-        // In g the same edge runs b → a, i.e. from g's corner kg to kg + 1 when consistently
-        // oriented; otherwise parametrize from a explicitly.
-        let uvf = [0, 1, 2].map(|c| out_uv(f, c));
-        let uvg = [0, 1, 2].map(|c| out_uv(g, c));
-        let forward_g = tris[g][(kg + 1) % 3] == va;
-        for s in [0.25, 0.5, 0.75] {
-            let pf = inside_point(uvf, k, s, inset(f));
-            let pg = if forward_g {
-                inside_point(uvg, kg, 1.0 - s, inset(g))
-            } else {
-                inside_point(uvg, corner_of(&tris[g], va), s, inset(g))
-            };
-            let cf = smoothing::sample(&sheets[face_sheet[f] as usize], pf);
-            let cg = smoothing::sample(&sheets[face_sheet[g] as usize], pg);
-            sum += (0..3).map(|c| (cf[c] - cg[c]).abs()).sum::<f64>() / 3.0 * 255.0;
-            n += 1.0;
-        }
-    }
-    if n > 0.0 { sum / n } else { 0.0 }
 }
 
 /// Colour smoothing (see [`smoothing`]) of the (sub-)charts `face_chart`, each textured from
@@ -981,6 +931,7 @@ fn smooth(
             let uv = [0, 1, 2].map(|q| out_uv(f, q));
             let (pa, pb) =
                 (positions[tris[f][k] as usize], positions[tris[f][(k + 1) % 3] as usize]);
+            let own = chart_camera[c] as usize;
             let ea = uv[k];
             let eb = uv[(k + 1) % 3];
             let len = ((eb[0] - ea[0]).powi(2) + (eb[1] - ea[1]).powi(2)).sqrt();
@@ -992,9 +943,17 @@ fn smooth(
                 let corr = if same_photo {
                     [0.0; 3]
                 } else {
+                    // Both photos are read at the same point of the edge, which each of them
+                    // sees (it bounds a face of each chart). Reading this chart's side inside
+                    // the face instead (where its correction is fixed) would compare points
+                    // 0.75 texels apart, a difference of detail, not of lighting; and reading
+                    // the neighbour's photo there would look past its visibility horizon, which
+                    // a chart border often is.
                     let Some(po) = cams[other].project_texel(x) else { continue };
+                    let Some(pm) = cams[own].project_texel(x) else { continue };
                     let po = to_level(po, usize::from(chart_level[gc]), cams[other].intr.height);
-                    let mine = smoothing::sample(store, q);
+                    let pm = to_level(pm, usize::from(chart_level[c]), cams[own].intr.height);
+                    let mine = smoothing::sample(&photos[chart_sheet[c] as usize], pm);
                     let theirs = smoothing::sample(&photos[chart_sheet[gc] as usize], po);
                     [0, 1, 2].map(|d| 0.5 * (theirs[d] - mine[d]))
                 };

@@ -19,6 +19,7 @@ mod mesh;
 mod pack;
 mod paint;
 pub mod rig;
+pub mod rig_score;
 mod rng;
 pub use rng::XorShift64;
 #[cfg(test)]

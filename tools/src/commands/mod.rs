@@ -6,6 +6,7 @@ mod convert;
 mod defrag;
 mod demo;
 mod plugins;
+mod rig_score;
 mod stats;
 mod synth;
 mod synth_rig;
@@ -38,5 +39,6 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Plugins(a) => plugins::run(&a),
         Command::Build(a) => build::run(&a, quiet),
         Command::SynthRig(a) => synth_rig::run(&a, quiet),
+        Command::RigScore(a) => rig_score::run(&a),
     }
 }

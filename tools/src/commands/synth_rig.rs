@@ -19,19 +19,21 @@ pub fn run(args: &SynthRigArgs, quiet: bool) -> Result<()> {
         width: args.width,
         height: args.height,
         smooth_regions: args.smooth_regions,
+        k1: args.k1,
+        gain_spread: args.gain_spread,
         seed: args.seed,
-        ..RigParams::default()
     };
     let out = generate_rig(&p, &args.out_dir)?;
     if !quiet {
         eprintln!(
-            "wrote {} ({} faces) and {} photos; cameras: {} (COLMAP text), {} (binary), {} (Bundler)",
+            "wrote {} ({} faces) and {} photos; cameras: {} (COLMAP text), {} (binary), {} (Bundler), {} (MeshLab)",
             out.mesh.display(),
             out.faces,
             out.photos,
             out.colmap_text.display(),
             out.colmap_binary.display(),
-            out.bundler.display()
+            out.bundler.display(),
+            out.meshlab_project.display()
         );
     }
     Ok(())
