@@ -61,15 +61,19 @@ fn bench(c: &mut Criterion) {
     // A quarter turn onto the same square: every texel copied verbatim.
     let turn = GridTransform { mirror: false, quarter_turns: 1, offset: [i64::from(SIZE), 0] };
     let exact = faces(|p| turn.invert(p), Some(turn));
+    // The identity: every input row copied as runs of bytes.
+    let same = faces(|p| p, Some(GridTransform::IDENTITY));
     // A slight rotation and shrink: every texel interpolated from four taps.
     let (co, si) = (0.99 * 1f64.to_radians().cos(), 0.99 * 1f64.to_radians().sin());
     let sampled = faces(|p| [co * p[0] - si * p[1] + 30.0, si * p[0] + co * p[1] + 5.0], None);
 
     // One run of each configuration first, so the stage timings of the report can be read
     // beside criterion's figures.
-    for (name, f, o) in
-        [("grid_preserved_copy", &exact, &opts), ("bilinear_sample", &sampled, &opts)]
-    {
+    for (name, f, o) in [
+        ("grid_preserved_copy", &exact, &opts),
+        ("grid_preserved_copy_unturned", &same, &opts),
+        ("bilinear_sample", &sampled, &opts),
+    ] {
         let r = resample_sheets(&[&src], f, &[(SIZE, SIZE)], o).unwrap().report;
         eprintln!(
             "{name}: bucket {:.1} ms, raster {:.1} ms ({:.1} Mtexel/s), dilate {:.1} ms, \
@@ -101,6 +105,9 @@ fn bench(c: &mut Criterion) {
     });
     g.bench_function("grid_preserved_copy", |b| {
         b.iter(|| black_box(resample_sheets(&[&src], &exact, &[(SIZE, SIZE)], &opts).unwrap()))
+    });
+    g.bench_function("grid_preserved_copy_unturned", |b| {
+        b.iter(|| black_box(resample_sheets(&[&src], &same, &[(SIZE, SIZE)], &opts).unwrap()))
     });
     g.bench_function("bilinear_sample", |b| {
         b.iter(|| black_box(resample_sheets(&[&src], &sampled, &[(SIZE, SIZE)], &opts).unwrap()))

@@ -158,6 +158,17 @@ impl TileStore {
         &self.map[o..o + bpp]
     }
 
+    /// The bytes of pixels `x..x + n` of row `y`, which must lie in one tile (`x % TILE + n <=
+    /// TILE`): consecutive pixels of a tile row are consecutive in memory.
+    #[inline]
+    pub fn pixel_run(&self, x: u32, y: u32, n: u32) -> &[u8] {
+        debug_assert!(x % TILE + n <= TILE);
+        let bpp = self.format.bytes_per_pixel();
+        let o = self.tile_offset(x / TILE, y / TILE)
+            + (((y % TILE) * TILE + (x % TILE)) as usize) * bpp;
+        &self.map[o..o + n as usize * bpp]
+    }
+
     /// The bytes of pixel `(x, y)`, writable.
     #[inline]
     pub fn pixel_mut(&mut self, x: u32, y: u32) -> &mut [u8] {

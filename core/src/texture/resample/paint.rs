@@ -5,8 +5,9 @@
 
 use super::pixel::{Conv, bilinear, copy_pixel, store_pixel};
 use super::{FaceMapping, Plan};
+use crate::geometry::GridTransform;
 use crate::texture::gutter::tile_bit;
-use crate::texture::raster::{PixelRect, rasterize_triangle};
+use crate::texture::raster::{PixelRect, TriangleRaster};
 use crate::texture::store::TILE;
 use crate::texture::{PixelFormat, TileStore};
 
@@ -34,6 +35,14 @@ pub(super) struct Context<'a> {
     pub format: PixelFormat,
 }
 
+/// The change of the input pixel `(column, row)` when the output column grows by one, under a
+/// grid transform: a unit step along one axis.
+fn source_step(g: GridTransform) -> (i64, i64) {
+    let (a, o) = (g.invert([1.0, 0.0]), g.invert([0.0, 0.0]));
+    // Texel space has y up and rows count down.
+    ((a[0] - o[0]) as i64, (o[1] - a[1]) as i64)
+}
+
 impl Context<'_> {
     /// Paints the faces `bucket` (in increasing face order) into tile `px` / `bits`, which covers
     /// pixel rectangle `rect` of an output sheet `dst_h` pixels high.
@@ -47,44 +56,125 @@ impl Context<'_> {
     ) -> Counts {
         let bpp = self.format.bytes_per_pixel();
         let mut counts = Counts::default();
-        let mut value = [0.0f64; 4];
         for &k in bucket {
             let (f, plan) = (&self.faces[k as usize], self.plans[k as usize]);
+            let Some(raster) = TriangleRaster::new(f.dst, dst_h, rect) else { continue };
             let src = self.inputs[f.src_sheet as usize];
             let conv = &self.convs[f.src_sheet as usize];
             let (sw, sh) = (src.width(), src.height());
-            let s = f.src;
-            rasterize_triangle(f.dst, dst_h, rect, |i, j, b| {
-                let (lx, ly) = (i - rect.x0, j - rect.y0);
-                let o = (ly * TILE + lx) as usize * bpp;
-                let out = &mut px[o..o + bpp];
-                let verbatim = plan.exact.and_then(|g| g.source_pixel(i, j, dst_h, sw, sh));
-                match verbatim {
-                    Some((x, y)) if conv.is_identity() => {
-                        copy_pixel(out, src.pixel(x, y), bpp);
-                        counts.copied += 1;
-                    }
-                    Some((x, y)) => {
-                        // A grid-preserved texel of an input in another format: converted, so
-                        // exact up to the format change only.
-                        conv.read(src.pixel(x, y), &mut value);
-                        store_pixel(out, self.format, &value);
-                        counts.copied += 1;
-                    }
-                    None => {
-                        let p = [
-                            b[0] * s[0][0] + b[1] * s[1][0] + b[2] * s[2][0],
-                            b[0] * s[0][1] + b[1] * s[1][1] + b[2] * s[2][1],
-                        ];
-                        bilinear(src, conv, p, &mut value);
-                        store_pixel(out, self.format, &value);
-                        counts.sampled += 1;
-                    }
+            let step = plan.exact.map(source_step);
+            raster.for_each_span(|j, first, last| {
+                let ly = j - rect.y0;
+                for i in first..=last {
+                    let (w, m) = tile_bit(i - rect.x0, ly);
+                    bits[w] |= m;
                 }
-                let (w, m) = tile_bit(lx, ly);
-                bits[w] |= m;
+                // A grid-preserved span whose two ends have input pixels has them all (the map
+                // is affine): copied as runs of bytes, without a texel-centre computation each.
+                if let (Some(g), Some(step)) = (plan.exact, step)
+                    && conv.is_identity()
+                    && let Some(start) = g.source_pixel(first, j, dst_h, sw, sh)
+                    && g.source_pixel(last, j, dst_h, sw, sh).is_some()
+                {
+                    let o = (ly * TILE + first - rect.x0) as usize * bpp;
+                    let n = last - first + 1;
+                    copy_run(&mut px[o..o + n as usize * bpp], src, start, step, n, bpp);
+                    counts.copied += u64::from(n);
+                    return;
+                }
+                for i in first..=last {
+                    let o = (ly * TILE + i - rect.x0) as usize * bpp;
+                    let out = &mut px[o..o + bpp];
+                    self.paint_texel(
+                        out,
+                        f,
+                        plan,
+                        src,
+                        conv,
+                        raster.bary(i, j),
+                        (i, j),
+                        dst_h,
+                        &mut counts,
+                    );
+                }
             });
         }
         counts
+    }
+
+    /// One texel of face `f` at output pixel `at` with barycentrics `b`: verbatim (converted
+    /// when the formats differ) where the face is grid-preserved and the input pixel exists,
+    /// else sampled bilinearly.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn paint_texel(
+        &self,
+        out: &mut [u8],
+        f: &FaceMapping,
+        plan: Plan,
+        src: &TileStore,
+        conv: &Conv,
+        b: [f64; 3],
+        (i, j): (u32, u32),
+        dst_h: u32,
+        counts: &mut Counts,
+    ) {
+        let bpp = self.format.bytes_per_pixel();
+        let mut value = [0.0f64; 4];
+        let verbatim =
+            plan.exact.and_then(|g| g.source_pixel(i, j, dst_h, src.width(), src.height()));
+        match verbatim {
+            Some((x, y)) if conv.is_identity() => {
+                copy_pixel(out, src.pixel(x, y), bpp);
+                counts.copied += 1;
+            }
+            Some((x, y)) => {
+                // A grid-preserved texel of an input in another format: converted, so exact up
+                // to the format change only.
+                conv.read(src.pixel(x, y), &mut value);
+                store_pixel(out, self.format, &value);
+                counts.copied += 1;
+            }
+            None => {
+                let s = f.src;
+                let p = [
+                    b[0] * s[0][0] + b[1] * s[1][0] + b[2] * s[2][0],
+                    b[0] * s[0][1] + b[1] * s[1][1] + b[2] * s[2][1],
+                ];
+                bilinear(src, conv, p, &mut value);
+                store_pixel(out, self.format, &value);
+                counts.sampled += 1;
+            }
+        }
+    }
+}
+
+/// Copies `n` input pixels into `out`, starting at input pixel `start` and moving by `step` per
+/// output pixel: along an input row forwards in runs of whole tile rows, else pixel by pixel.
+fn copy_run(
+    out: &mut [u8],
+    src: &TileStore,
+    start: (u32, u32),
+    step: (i64, i64),
+    n: u32,
+    bpp: usize,
+) {
+    let (mut x, y) = start;
+    if step == (1, 0) {
+        let mut done = 0u32;
+        while done < n {
+            let run = (n - done).min(TILE - x % TILE);
+            let o = done as usize * bpp;
+            out[o..o + run as usize * bpp].copy_from_slice(src.pixel_run(x, y, run));
+            done += run;
+            x += run;
+        }
+        return;
+    }
+    let (mut cx, mut cy) = (i64::from(start.0), i64::from(start.1));
+    for k in 0..n as usize {
+        copy_pixel(&mut out[k * bpp..(k + 1) * bpp], src.pixel(cx as u32, cy as u32), bpp);
+        cx += step.0;
+        cy += step.1;
     }
 }
