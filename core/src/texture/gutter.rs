@@ -136,6 +136,11 @@ struct TileFill {
 struct Scratch {
     level: Vec<u8>,
     value: Vec<f32>,
+    /// The empty texels that the current step may fill, and those of the next step.
+    front: Vec<u32>,
+    next: Vec<u32>,
+    /// The step that last put each texel on `next`, so that it goes there once.
+    queued: Vec<u8>,
 }
 
 /// Level of a texel nobody has written yet.
@@ -314,46 +319,71 @@ fn dilate_tile(
     if !any {
         return None;
     }
+    // Step `s` can fill only empty texels next to a texel of level `s − 1` (one next to a lower
+    // level was filled earlier), so each step visits the frontier the previous one left instead
+    // of the whole window; what it computes is the same. The first frontier: empty texels next to
+    // a written one.
+    let neighbours = |k: usize| {
+        let (wx, wy) = ((k % ww) as i32, (k / ww) as i32);
+        (-1i32..=1)
+            .flat_map(move |dy| (-1i32..=1).map(move |dx| (dx, dy)))
+            .filter(|&(dx, dy)| dx != 0 || dy != 0)
+            .map(move |(dx, dy)| (wx + dx, wy + dy))
+            .filter(move |&(x, y)| x >= 0 && y >= 0 && x < ww as i32 && y < wh as i32)
+            .map(move |(x, y)| y as usize * ww + x as usize)
+    };
+    s.front.clear();
+    for k in 0..ww * wh {
+        if s.level[k] == EMPTY && neighbours(k).any(|q| s.level[q] == 0) {
+            s.front.push(k as u32);
+        }
+    }
+    s.queued.clear();
+    s.queued.resize(ww * wh, 0);
     let mut acc = [0f32; 4];
     for step in 1..=radius as u8 {
         // After `step` steps, texels farther than `radius − step` from the window edge may lack
         // halo information, but they are never in the tile itself, whose distance is ≥ radius
         // from the window edge wherever the window was not clipped by the image border.
-        for wy in 0..wh {
-            for wx in 0..ww {
-                let k = wy * ww + wx;
-                if s.level[k] != EMPTY {
-                    continue;
-                }
-                let mut n = 0u32;
-                acc[..ch].fill(0.0);
-                for dy in -1i32..=1 {
-                    let ny = wy as i32 + dy;
-                    if ny < 0 || ny >= wh as i32 {
-                        continue;
-                    }
-                    for dx in -1i32..=1 {
-                        let nx = wx as i32 + dx;
-                        if (dx == 0 && dy == 0) || nx < 0 || nx >= ww as i32 {
-                            continue;
-                        }
-                        let q = ny as usize * ww + nx as usize;
-                        if s.level[q] < step {
-                            n += 1;
-                            for (a, v) in acc[..ch].iter_mut().zip(&s.value[q * ch..(q + 1) * ch]) {
-                                *a += v;
-                            }
-                        }
-                    }
-                }
-                if n > 0 {
-                    s.level[k] = step;
-                    for (v, a) in s.value[k * ch..(k + 1) * ch].iter_mut().zip(&acc[..ch]) {
-                        *v = a / n as f32;
+        s.next.clear();
+        for i in 0..s.front.len() {
+            let k = s.front[i] as usize;
+            let mut n = 0u32;
+            acc[..ch].fill(0.0);
+            for q in neighbours(k) {
+                if s.level[q] < step {
+                    n += 1;
+                    for (a, v) in acc[..ch].iter_mut().zip(&s.value[q * ch..(q + 1) * ch]) {
+                        *a += v;
                     }
                 }
             }
+            if n > 0 {
+                s.level[k] = step;
+                for (v, a) in s.value[k * ch..(k + 1) * ch].iter_mut().zip(&acc[..ch]) {
+                    *v = a / n as f32;
+                }
+            }
         }
+        if step == radius as u8 {
+            break;
+        }
+        for i in 0..s.front.len() {
+            let k = s.front[i] as usize;
+            if s.level[k] != step {
+                continue;
+            }
+            for q in neighbours(k) {
+                if s.level[q] == EMPTY && s.queued[q] != step {
+                    s.queued[q] = step;
+                    s.next.push(q as u32);
+                }
+            }
+        }
+        // The frontier in window order, as the full scan visited it (the result does not depend
+        // on the order, but the memory walk is kinder).
+        s.next.sort_unstable();
+        std::mem::swap(&mut s.front, &mut s.next);
     }
     let bpp = format.bytes_per_pixel();
     let mut pixels = vec![0u8; store.tile_bytes()];
