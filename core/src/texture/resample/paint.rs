@@ -102,7 +102,7 @@ impl Context<'_> {
         counts
     }
 
-    /// One texel of face `f` at output pixel `at` with barycentrics `b`: verbatim (converted
+    /// One texel of face `f` at output pixel `(i, j)` with barycentrics `b`: verbatim (converted
     /// when the formats differ) where the face is grid-preserved and the input pixel exists,
     /// else sampled bilinearly.
     #[allow(clippy::too_many_arguments)]
