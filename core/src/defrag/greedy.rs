@@ -102,6 +102,7 @@ impl Engine<'_> {
     /// The final counts of the report and the layout for packing.
     pub(crate) fn finish(mut self, start: Instant) -> (MergeReport, MergedLayout) {
         self.report.zero_area = self.join_zero_area_charts();
+        self.report.unfold = self.unfold_folded_charts();
         let frozen = self.t.charts.iter().filter(|c| c.frozen).count() as u64;
         let live =
             (0..self.t.charts.len()).filter(|&c| self.chart_live(ChartId(c as u32))).count() as u64;

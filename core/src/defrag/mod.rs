@@ -12,7 +12,8 @@
 //! - `patch`: the optimization area, the local problem and its topology check;
 //! - `attempt`: one merge attempt with its checks, commit and rollback;
 //! - `greedy`: the priority queue and the rescoring after each accepted merge;
-//! - `zero_area`: charts of zero-area faces joined to a neighbouring chart at the end.
+//! - `zero_area`: charts of zero-area faces joined to a neighbouring chart at the end;
+//! - `unfold`: charts folded flat onto themselves laid out again as a flat net at the end.
 
 mod attempt;
 mod clusters;
@@ -23,6 +24,7 @@ mod output;
 mod patch;
 mod state;
 mod undo;
+mod unfold;
 mod untangle;
 mod zero_area;
 
@@ -33,6 +35,7 @@ pub use clusters::merge_charts_parallel;
 pub use greedy::merge_charts;
 pub use output::merged_model;
 pub use state::MergedLayout;
+pub use unfold::UnfoldReport;
 pub use untangle::{UntangleOptions, UntangleReport, untangle_charts};
 pub use zero_area::ZeroAreaReport;
 
@@ -302,6 +305,8 @@ pub struct MergeReport {
     pub max_patch_faces: u64,
     /// Charts of zero-area faces joined to neighbouring charts after merging.
     pub zero_area: ZeroAreaReport,
+    /// Charts folded flat onto themselves, unfolded after the zero-area join.
+    pub unfold: UnfoldReport,
     pub stop: StopReason,
     /// The parallel rounds (empty for the serial baseline), the last one serial on one cluster.
     pub rounds: Vec<ClusterRound>,

@@ -279,7 +279,13 @@ fn a_chart_of_zero_area_faces_joins_its_neighbour_outside_it() {
     let (t, r) = run(&m, &MergeOptions::default());
     assert_eq!(
         r.zero_area,
-        ZeroAreaReport { charts: 1, charts_joined: 1, faces_joined: 1, faces_joined_at_corner: 0 }
+        ZeroAreaReport {
+            charts: 1,
+            charts_joined: 1,
+            faces_joined: 1,
+            faces_joined_at_corner: 0,
+            folded_charts: 0
+        }
     );
     assert_eq!(r.charts_after, 1, "{r:?}");
     assert_eq!(t.face_chart[4], t.face_chart[0]);
@@ -307,8 +313,13 @@ fn a_chart_of_zero_area_faces_joins_its_neighbour_outside_it() {
 fn a_sliver_whose_edge_placement_would_overlap_joins_at_a_corner() {
     let m = grid_and_sliver(false);
     let (t, r) = run(&m, &MergeOptions::default());
-    let joined =
-        ZeroAreaReport { charts: 1, charts_joined: 1, faces_joined: 1, faces_joined_at_corner: 1 };
+    let joined = ZeroAreaReport {
+        charts: 1,
+        charts_joined: 1,
+        faces_joined: 1,
+        faces_joined_at_corner: 1,
+        folded_charts: 0,
+    };
     assert_eq!(r.zero_area, joined);
     assert_eq!(t.face_chart[4], t.face_chart[0]);
     let back = merged_model(&m, &t);
@@ -351,8 +362,13 @@ fn inner_cap() -> Model {
 fn a_cap_that_would_overlap_at_every_turn_stays_in_its_chart() {
     let m = inner_cap();
     let (t, r) = run(&m, &MergeOptions::default());
-    let none =
-        ZeroAreaReport { charts: 1, charts_joined: 0, faces_joined: 0, faces_joined_at_corner: 0 };
+    let none = ZeroAreaReport {
+        charts: 1,
+        charts_joined: 0,
+        faces_joined: 0,
+        faces_joined_at_corner: 0,
+        folded_charts: 0,
+    };
     assert_eq!(r.zero_area, none);
     assert_eq!(r.charts_after, 2);
     assert_ne!(t.face_chart[8], t.face_chart[0]);
@@ -381,8 +397,13 @@ fn a_cap_that_shares_no_edge_joins_at_a_corner_with_its_own_shape() {
     assert_eq!(t0.report.charts, 2);
     assert!(t0.face_flags[4].has(crate::topology::FrozenReasons::ZERO_AREA_3D));
     let (t, r) = run(&m, &MergeOptions::default());
-    let joined =
-        ZeroAreaReport { charts: 1, charts_joined: 1, faces_joined: 1, faces_joined_at_corner: 1 };
+    let joined = ZeroAreaReport {
+        charts: 1,
+        charts_joined: 1,
+        faces_joined: 1,
+        faces_joined_at_corner: 1,
+        folded_charts: 0,
+    };
     assert_eq!(r.zero_area, joined);
     assert_eq!(r.charts_after, 1, "{r:?}");
     // The independent check on the written-back model: the cap's first corner has the UV of
@@ -484,4 +505,76 @@ fn anchored_faces_are_never_untangled() {
         untangle_charts(&mut t, &vec![0; n], 1, &vec![true; n], &mut Keep, &Default::default());
     assert_eq!((report.folded_faces, report.overlapping_pairs, report.regions), (0, 0, 0));
     assert_eq!(before, t.uv_pos);
+}
+
+/// A closed octahedron (a speck of floating debris) whose UV fan is folded flat: the upper four
+/// faces wind one way around the centre of a diamond, the lower four the other way over them.
+fn folded_octahedron() -> Model {
+    let p = vec![
+        [0.0, 0.0, 1.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, -1.0, 0.0],
+        [0.0, 0.0, -1.0],
+    ];
+    let mut m = model_with(p);
+    let tex = |v: u32, m: &Model| {
+        let q = m.positions[v as usize];
+        [100.0 + 8.0 * q[0], 100.0 + 8.0 * q[1]]
+    };
+    for i in 0..4u32 {
+        let (a, b) = (1 + i, 1 + (i + 1) % 4);
+        for f in [[0, a, b], [5, b, a]] {
+            let t = f.map(|v| tex(v, &m));
+            add_face(&mut m, f, t);
+        }
+    }
+    m
+}
+
+#[test]
+fn a_chart_folded_flat_onto_itself_is_unfolded_into_a_net() {
+    let m = folded_octahedron();
+    let t0 = prepare(&m);
+    assert_eq!(t0.report.charts, 1);
+    let net: f64 = (0..8).map(|f| crate::geometry::signed_area2(state::current_tri(&t0, f))).sum();
+    assert_eq!(net, 0.0, "the fixture is folded flat");
+    let (t, r) = run(&m, &MergeOptions::default());
+    assert_eq!(r.unfold, UnfoldReport { folded_charts: 1, charts_unfolded: 1, faces_moved: 8 });
+    assert_eq!(r.charts_after, 1, "{r:?}");
+    // The independent check on the written-back model: one UV component, every face wound the
+    // same way with its own shape, and no two faces overlapping.
+    let back = merged_model(&m, &t);
+    assert_eq!(back.faces.len(), m.faces.len());
+    assert_eq!(prepare(&back).report.uv_components, 1);
+    let tri = |mm: &Model, f: usize| {
+        let uv = mm.faces[f].uv.expect("uvs");
+        uv.map(|u| mm.uvs[u.idx()].map(|x| x * f64::from(SHEET)))
+    };
+    let side = |t: [[f64; 2]; 3], k: usize| {
+        let (a, b) = (t[k], t[(k + 1) % 3]);
+        (b[0] - a[0]).hypot(b[1] - a[1])
+    };
+    for f in 0..8 {
+        let (now, was) = (tri(&back, f), tri(&m, f));
+        assert!(crate::geometry::signed_area2(now) > 1.0, "face {f} winds back: {now:?}");
+        for k in 0..3 {
+            assert!((side(now, k) - side(was, k)).abs() < 1e-9, "face {f} changed shape");
+        }
+        for g in 0..f {
+            assert!(!crate::geometry::triangles_overlap(now, tri(&back, g)), "{f} overlaps {g}");
+        }
+    }
+}
+
+#[test]
+fn a_chart_that_is_not_folded_flat_is_not_unfolded() {
+    // The octahedron with its lower half removed is a plain fan of positive area.
+    let mut m = folded_octahedron();
+    m.faces = m.faces.iter().step_by(2).cloned().collect();
+    let (t, r) = run(&m, &MergeOptions::default());
+    assert_eq!(r.unfold, UnfoldReport::default());
+    let t0 = prepare(&m);
+    assert_eq!(t.uv_pos[..t0.uv_pos.len()], t0.uv_pos[..]);
 }

@@ -30,12 +30,17 @@ use crate::geometry::{
 use crate::topology::{ChartId, FrozenReasons, HalfEdgeId, UvVertId};
 
 use super::grid::tri_bbox;
+use super::unfold::third_corner;
 
 /// Doubled texel area below which a placed face counts as degenerate (the evaluator's 1e-6 texel²).
 const DEGENERATE_AREA2: f64 = 2e-6;
 /// Passes over the zero-area faces: a face whose only neighbours have zero area can join through
 /// a face attached in an earlier pass.
 const PASSES: usize = 4;
+
+/// A chart whose net signed UV area is at most this share of its total absolute area is folded
+/// flat (its two layers cancel up to rounding).
+const FOLDED_FLAT_RATIO: f64 = 1e-9;
 
 /// Turns tried for a face joining at a corner: the original direction and seven more in steps
 /// of 45°.
@@ -51,6 +56,9 @@ pub struct ZeroAreaReport {
     pub faces_joined: u64,
     /// Of the faces joined, those that joined at a corner (no edge join fitted).
     pub faces_joined_at_corner: u64,
+    /// Live charts folded flat onto themselves (their signed UV areas cancel), before the pass;
+    /// their faces are joined like those of zero-area charts and counted with them.
+    pub folded_charts: u64,
 }
 
 impl Engine<'_> {
@@ -72,6 +80,10 @@ impl Engine<'_> {
             }
             if faces.iter().all(|&f| zero_area(self, f)) {
                 report.charts += 1;
+                source.push(ChartId(c as u32));
+                pending.extend_from_slice(faces);
+            } else if self.folded_flat(c) {
+                report.folded_charts += 1;
                 source.push(ChartId(c as u32));
                 pending.extend_from_slice(faces);
             } else {
@@ -126,6 +138,20 @@ impl Engine<'_> {
         report.charts_joined =
             source.iter().filter(|c| self.chart_faces[c.idx()].is_empty()).count() as u64;
         report
+    }
+
+    /// Whether live chart `c` is folded flat onto itself: its faces' signed UV areas cancel to
+    /// rounding noise although some face has an area. Half of such a chart winds against the
+    /// other half whatever orientation it is given, its layers share texels, and no merge can
+    /// take it (every attempt folds or overlaps), so its faces join neighbours one by one.
+    pub(super) fn folded_flat(&self, c: usize) -> bool {
+        let (mut net, mut total) = (0.0f64, 0.0f64);
+        for &f in &self.chart_faces[c] {
+            let a2 = self.face_area2[f as usize];
+            net += a2;
+            total += a2.abs();
+        }
+        total > 0.0 && net.abs() <= FOLDED_FLAT_RATIO * total
     }
 
     /// Tries the corners of face `f` in order against the host corners at the same position
@@ -248,7 +274,16 @@ impl Engine<'_> {
         let energy = self.face_weight[fu] * isometric_energy(orig_tri(self.t, fu), tri);
         self.energy_num += energy - self.face_energy[fu];
         self.face_energy[fu] = energy;
-        self.face_area2[fu] = signed_area2(tri);
+        let area2 = signed_area2(tri);
+        let from = &mut self.t.charts[old.idx()];
+        from.n_faces -= 1;
+        from.area_signed -= 0.5 * self.face_area2[fu];
+        from.area_uv = from.area_signed.abs();
+        let into = &mut self.t.charts[chart.idx()];
+        into.n_faces += 1;
+        into.area_signed += 0.5 * area2;
+        into.area_uv = into.area_signed.abs();
+        self.face_area2[fu] = area2;
         self.grid.insert(f, &tri);
     }
 
@@ -305,25 +340,16 @@ impl Engine<'_> {
         chart: ChartId,
     ) -> Option<[f64; 2]> {
         let o = orig_tri(self.t, f);
-        let (op, oq, or) = (o[k], o[(k + 1) % 3], o[(k + 2) % 3]);
-        let d = [oq[0] - op[0], oq[1] - op[1]];
-        let l2 = d[0] * d[0] + d[1] * d[1];
         let (a, b) = (self.t.uv_pos[up.idx()], self.t.uv_pos[uq.idx()]);
-        let dc = [b[0] - a[0], b[1] - a[1]];
-        if l2.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || dc == [0.0, 0.0] {
-            return None;
-        }
-        let r = [or[0] - op[0], or[1] - op[1]];
-        let along = (r[0] * d[0] + r[1] * d[1]) / l2;
-        let across = ((d[0] * r[1] - d[1] * r[0]) / l2).abs();
-        let x = [a[0] + along * dc[0] - across * dc[1], a[1] + along * dc[1] + across * dc[0]];
+        // The third corner goes to the side of the edge that gives the face the chart's
+        // orientation (left of `up → uq` in a chart of positive area, right otherwise).
+        let sign = if self.t.charts[chart.idx()].area_signed < 0.0 { -1.0 } else { 1.0 };
+        let x = third_corner(o, k, a, b, sign)?;
         let mut tri: Tri2 = [[0.0; 2]; 3];
         tri[k] = a;
         tri[(k + 1) % 3] = b;
         tri[(k + 2) % 3] = x;
-        let area2 = signed_area2(tri);
-        if !x.iter().all(|c| c.is_finite())
-            || (signed_area2(o).abs() >= DEGENERATE_AREA2 && area2 < DEGENERATE_AREA2)
+        if signed_area2(o).abs() >= DEGENERATE_AREA2 && signed_area2(tri) * sign < DEGENERATE_AREA2
         {
             return None;
         }
@@ -396,7 +422,7 @@ impl Engine<'_> {
     }
 
     /// The UV length of half-edge `h` in the current layout.
-    fn half_edge_len(&self, h: usize) -> f64 {
+    pub(super) fn half_edge_len(&self, h: usize) -> f64 {
         let f = h / 3;
         let (a, b) = (
             self.t.uv_pos[self.t.corner_uv[h].idx()],
