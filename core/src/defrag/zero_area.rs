@@ -341,15 +341,14 @@ impl Engine<'_> {
     ) -> Option<[f64; 2]> {
         let o = orig_tri(self.t, f);
         let (a, b) = (self.t.uv_pos[up.idx()], self.t.uv_pos[uq.idx()]);
-        // The third corner goes to the side of the edge that gives the face the chart's
-        // orientation (left of `up → uq` in a chart of positive area, right otherwise).
-        let sign = if self.t.charts[chart.idx()].area_signed < 0.0 { -1.0 } else { 1.0 };
-        let x = third_corner(o, k, a, b, sign)?;
+        // Every mergeable chart winds counter-clockwise (the engine mirrors the others at the
+        // start), so the third corner goes to the left of `up → uq`.
+        let x = third_corner(o, k, a, b, 1.0)?;
         let mut tri: Tri2 = [[0.0; 2]; 3];
         tri[k] = a;
         tri[(k + 1) % 3] = b;
         tri[(k + 2) % 3] = x;
-        if signed_area2(o).abs() >= DEGENERATE_AREA2 && signed_area2(tri) * sign < DEGENERATE_AREA2
+        if signed_area2(o).abs() >= DEGENERATE_AREA2 && signed_area2(tri) < DEGENERATE_AREA2
         {
             return None;
         }
