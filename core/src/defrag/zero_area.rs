@@ -348,8 +348,7 @@ impl Engine<'_> {
         tri[k] = a;
         tri[(k + 1) % 3] = b;
         tri[(k + 2) % 3] = x;
-        if signed_area2(o).abs() >= DEGENERATE_AREA2 && signed_area2(tri) < DEGENERATE_AREA2
-        {
+        if signed_area2(o).abs() >= DEGENERATE_AREA2 && signed_area2(tri) < DEGENERATE_AREA2 {
             return None;
         }
         self.candidates.clear();
