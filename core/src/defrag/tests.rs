@@ -578,3 +578,35 @@ fn a_chart_that_is_not_folded_flat_is_not_unfolded() {
     let t0 = prepare(&m);
     assert_eq!(t.uv_pos[..t0.uv_pos.len()], t0.uv_pos[..]);
 }
+
+#[test]
+fn a_face_turned_over_onto_its_neighbour_is_turned_back() {
+    // A 4 × 4 grid with an ear below its bottom side from (2, 0) to (3, 0), whose UV tip lies
+    // inside the grid: the ear is folded over that side. Its tip is on the chart border, so no
+    // region repair (fixed outline) can move it.
+    let map = |q: [f64; 3]| [10.0 + 4.0 * q[0], 10.0 + 4.0 * q[1]];
+    let mut m = two_halves(4, map, map);
+    m.positions.push([2.5, -0.5, 0.0]);
+    let tip = (m.positions.len() - 1) as u32;
+    add_face(&mut m, [3, 2, tip], [map([3.0, 0.0, 0.0]), map([2.0, 0.0, 0.0]), [20.0, 12.0]]);
+    let ear = m.faces.len() - 1;
+    let mut t = prepare(&m);
+    assert_eq!(t.report.charts, 1);
+    assert_eq!(folded_and_overlapping(&t).0, 1, "the ear is folded");
+    let before = t.uv_pos.clone();
+    let n = t.face_chart.len();
+    let report =
+        untangle_charts(&mut t, &vec![0; n], 1, &vec![false; n], &mut Keep, &Default::default());
+    assert_eq!(report.folds_flipped, 1, "{report:?}");
+    assert_eq!((report.folded_faces_left, report.overlapping_pairs_left), (0, 0), "{report:?}");
+    assert_eq!(folded_and_overlapping(&t), (0, 0));
+    // The grid did not move; the ear keeps its side on the grid and its own shape, below it.
+    assert_eq!(t.uv_pos[..before.len()], before[..]);
+    let tri = state::current_tri(&t, ear);
+    assert_eq!([tri[0], tri[1]], [map([3.0, 0.0, 0.0]), map([2.0, 0.0, 0.0])]);
+    assert!((tri[2][0] - 20.0).abs() < 1e-9 && (tri[2][1] - 8.0).abs() < 1e-9, "{tri:?}");
+    // The written-back model is still one chart.
+    let back = merged_model(&m, &t);
+    assert_eq!(back.faces.len(), m.faces.len());
+    assert_eq!(prepare(&back).report.uv_components, 1);
+}

@@ -17,6 +17,8 @@ use crate::geometry::{Tri2, isometric_energy, signed_area2, triangles_overlap_be
 use crate::plugin::{LocalProblem, LocalSolver};
 use crate::topology::Topology;
 
+use super::unfold::third_corner;
+
 /// Twice the evaluator's degenerate-area threshold (texel²): below it a doubled area counts as
 /// degenerate (the same threshold as the merge's fold check).
 const DEGENERATE_AREA2: f64 = 2e-6;
@@ -49,6 +51,9 @@ pub struct UntangleReport {
     /// Connected groups of such faces, each repaired (or not) on its own.
     pub regions: u64,
     pub regions_repaired: u64,
+    /// Folded faces left by the region repairs and turned over one of their sides instead (see
+    /// [`flip_folds`]).
+    pub folds_flipped: u64,
     /// Faces whose UVs the repairs changed.
     pub faces_moved: u64,
     /// Overlapping pairs and folded faces left after the repair.
@@ -313,6 +318,7 @@ pub fn untangle_charts(
     let mut pairs = Vec::new();
     let mut folds = Vec::new();
     let mut uf: Vec<u32> = (0..face_chart.len() as u32).collect();
+    let mut walk = Walk { stamp: vec![0; face_chart.len()], epoch: 0, queue: Vec::new() };
     let mut r = Region {
         in_region: vec![false; face_chart.len()],
         local: vec![u32::MAX; t.uv_pos.len()],
@@ -376,6 +382,10 @@ pub fn untangle_charts(
             i = j;
         }
         defects(t, faces, anchored, sign, &mut pairs, &mut folds);
+        if !folds.is_empty() {
+            report.folds_flipped += flip_folds(t, faces, &folds, sign, opts, &mut walk);
+            defects(t, faces, anchored, sign, &mut pairs, &mut folds);
+        }
         report.overlapping_pairs_left += pairs.len() as u64;
         report.folded_faces_left += folds.len() as u64;
     }
@@ -656,4 +666,118 @@ fn tutte(uv: &mut [[f64; 2]], fixed: &[bool], triangles: &[[u32; 3]], iterations
             }
         }
     }
+}
+
+/// Turns each folded face of `folds` (outside the anchor group) over one of its sides, when the
+/// region repair could not unfold it in place: the face keeps that side on the chart's two UV
+/// vertices, gets its original UV shape on the far side of it (wound like the chart), and its
+/// third corner becomes a UV vertex of its own; its two other sides become chart borders. Most
+/// folds in Meshroom atlases are faces lying turned over onto their neighbour, and a fixed region
+/// outline can never unfold them. A placement is kept only when the face is oriented, within the
+/// local distortion threshold of its original shape, and overlaps no face of the chart; only
+/// sides shared with a neighbour are tried. Returns the faces turned.
+fn flip_folds(
+    t: &mut Topology,
+    chart_faces: &[u32],
+    folds: &[u32],
+    sign: f64,
+    opts: &UntangleOptions,
+    walk: &mut Walk,
+) -> u64 {
+    let mut flipped = 0;
+    for &f in folds {
+        let f = f as usize;
+        let (cur, o) = (tri(t, f), orig(t, f));
+        if !folded(signed_area2(cur), sign) {
+            continue;
+        }
+        // Only a side shared with a neighbour keeps the face in its chart once the other two
+        // are cut.
+        let placed = (0..3).filter(|&k| !t.he_uv_twin[3 * f + k].is_none()).find_map(|k| {
+            let x = third_corner(o, k, cur[k], cur[(k + 1) % 3], sign)?;
+            let mut tri_new = cur;
+            tri_new[(k + 2) % 3] = x;
+            let fits = signed_area2(tri_new) * sign >= DEGENERATE_AREA2
+                && isometric_energy(o, tri_new) <= opts.local_distortion
+                && !overlaps_chart(t, chart_faces, f, tri_new)
+                && stays_connected(t, f, k, walk);
+            fits.then_some((k, x))
+        });
+        let Some((k, x)) = placed else { continue };
+        let c = 3 * f + (k + 2) % 3;
+        let v = crate::topology::UvVertId::from_usize(t.uv_pos.len());
+        t.uv_pos.push(x);
+        t.uv_vpos.push(t.corner_pos[c]);
+        let chart = t.uv_chart[t.corner_uv[c].idx()];
+        t.uv_chart.push(chart);
+        t.corner_uv[c] = v;
+        for h in [3 * f + (k + 1) % 3, 3 * f + (k + 2) % 3] {
+            let twin = t.he_uv_twin[h];
+            if !twin.is_none() {
+                t.he_uv_twin[twin.idx()] = crate::topology::HalfEdgeId::NONE;
+                t.he_uv_twin[h] = crate::topology::HalfEdgeId::NONE;
+            }
+        }
+        flipped += 1;
+    }
+    flipped
+}
+
+/// Scratch of the connectivity walks: a visit stamp per face and a queue.
+struct Walk {
+    stamp: Vec<u32>,
+    epoch: u32,
+    queue: Vec<u32>,
+}
+
+/// Whether the faces across sides `k + 1` and `k + 2` of face `f` still reach the face across
+/// side `k` through UV sides once those two sides are cut (so that turning `f` over side `k`
+/// splits no part off its chart: a part cut off would be a chart of its own, and one holding
+/// folded faces may wind the other way).
+fn stays_connected(t: &Topology, f: usize, k: usize, walk: &mut Walk) -> bool {
+    let across = |h: usize| {
+        let tw = t.he_uv_twin[h];
+        (!tw.is_none()).then(|| tw.idx() / 3)
+    };
+    let Some(start) = across(3 * f + k) else { return false };
+    let mut targets: Vec<usize> =
+        [(k + 1) % 3, (k + 2) % 3].iter().filter_map(|&j| across(3 * f + j)).collect();
+    walk.epoch = walk.epoch.wrapping_add(1);
+    if walk.epoch == 0 {
+        walk.stamp.fill(0);
+        walk.epoch = 1;
+    }
+    let epoch = walk.epoch;
+    walk.queue.clear();
+    walk.queue.push(start as u32);
+    walk.stamp[start] = epoch;
+    walk.stamp[f] = epoch;
+    let mut head = 0;
+    while head < walk.queue.len() && !targets.is_empty() {
+        let g = walk.queue[head] as usize;
+        head += 1;
+        targets.retain(|&x| x != g);
+        for h in 3 * g..3 * g + 3 {
+            if let Some(n) = across(h) {
+                if walk.stamp[n] != epoch {
+                    walk.stamp[n] = epoch;
+                    walk.queue.push(n as u32);
+                }
+            }
+        }
+    }
+    targets.is_empty()
+}
+
+/// Whether triangle `tri` of face `f` overlaps any other face of `chart_faces`.
+fn overlaps_chart(t: &Topology, chart_faces: &[u32], f: usize, tri_f: Tri2) -> bool {
+    let b = bbox(&tri_f);
+    chart_faces.iter().any(|&g| {
+        let g = g as usize;
+        if g == f {
+            return false;
+        }
+        let tg = tri(t, g);
+        boxes_meet(&b, &bbox(&tg)) && triangles_overlap_beyond_noise(tri_f, tg)
+    })
 }

@@ -278,6 +278,8 @@ pub fn defrag_with_progress(
                 opts,
             ));
         }
+        // The repair may give a face a UV vertex of its own (a fold turned over a side).
+        let corner_vert: Vec<u32> = topo.corner_uv.iter().map(|v| v.0).collect();
         let li =
             layout_input(&topo, &corner_vert, &face_chart, &face_area_3d, n, &input_sheet_sizes);
         let packed = pack_layout(&li, packer.as_ref(), &cfg.pack)?;
