@@ -758,11 +758,11 @@ fn stays_connected(t: &Topology, f: usize, k: usize, walk: &mut Walk) -> bool {
         head += 1;
         targets.retain(|&x| x != g);
         for h in 3 * g..3 * g + 3 {
-            if let Some(n) = across(h) {
-                if walk.stamp[n] != epoch {
-                    walk.stamp[n] = epoch;
-                    walk.queue.push(n as u32);
-                }
+            if let Some(n) = across(h)
+                && walk.stamp[n] != epoch
+            {
+                walk.stamp[n] = epoch;
+                walk.queue.push(n as u32);
             }
         }
     }
