@@ -480,8 +480,14 @@ fn a_folded_fan_is_untangled_and_the_rest_stays() {
     assert!(folded > 0 && pairs > 0, "the fixture folds: {folded} folded, {pairs} pairs");
     let before = t.uv_pos.clone();
     let n = t.face_chart.len();
-    let report =
-        untangle_charts(&mut t, &vec![0; n], 1, &vec![false; n], &mut Keep, &Default::default());
+    let report = untangle_charts(
+        &mut t,
+        &vec![0; n],
+        1,
+        &vec![false; n],
+        &mut [Box::new(Keep) as Box<dyn LocalSolver>],
+        &Default::default(),
+    );
     assert_eq!(report.folded_faces as usize, folded, "{report:?}");
     assert_eq!(report.regions_repaired, report.regions, "{report:?}");
     assert_eq!((report.folded_faces_left, report.overlapping_pairs_left), (0, 0), "{report:?}");
@@ -501,8 +507,14 @@ fn anchored_faces_are_never_untangled() {
     let mut t = prepare(&m);
     let before = t.uv_pos.clone();
     let n = t.face_chart.len();
-    let report =
-        untangle_charts(&mut t, &vec![0; n], 1, &vec![true; n], &mut Keep, &Default::default());
+    let report = untangle_charts(
+        &mut t,
+        &vec![0; n],
+        1,
+        &vec![true; n],
+        &mut [Box::new(Keep) as Box<dyn LocalSolver>],
+        &Default::default(),
+    );
     assert_eq!((report.folded_faces, report.overlapping_pairs, report.regions), (0, 0, 0));
     assert_eq!(before, t.uv_pos);
 }
@@ -595,8 +607,14 @@ fn a_face_turned_over_onto_its_neighbour_is_turned_back() {
     assert_eq!(folded_and_overlapping(&t).0, 1, "the ear is folded");
     let before = t.uv_pos.clone();
     let n = t.face_chart.len();
-    let report =
-        untangle_charts(&mut t, &vec![0; n], 1, &vec![false; n], &mut Keep, &Default::default());
+    let report = untangle_charts(
+        &mut t,
+        &vec![0; n],
+        1,
+        &vec![false; n],
+        &mut [Box::new(Keep) as Box<dyn LocalSolver>],
+        &Default::default(),
+    );
     assert_eq!(report.folds_flipped, 1, "{report:?}");
     assert_eq!((report.folded_faces_left, report.overlapping_pairs_left), (0, 0), "{report:?}");
     assert_eq!(folded_and_overlapping(&t), (0, 0));

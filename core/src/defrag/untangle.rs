@@ -87,6 +87,22 @@ pub struct UntangleFailures {
     pub overlap: u64,
 }
 
+impl UntangleReport {
+    /// Adds the counts of one worker's repairs.
+    fn absorb(&mut self, o: &Self) {
+        self.overlapping_pairs += o.overlapping_pairs;
+        self.folded_faces += o.folded_faces;
+        self.regions += o.regions;
+        self.regions_repaired += o.regions_repaired;
+        self.faces_moved += o.faces_moved;
+        let (f, g) = (&mut self.failed, &o.failed);
+        f.no_free_vertex += g.no_free_vertex;
+        f.embedding += g.embedding;
+        f.distortion += g.distortion;
+        f.overlap += g.overlap;
+    }
+}
+
 impl UntangleFailures {
     fn count(&mut self, f: Failure) {
         match f {
@@ -150,8 +166,8 @@ impl Lists {
 }
 
 #[inline]
-fn tri(t: &Topology, f: usize) -> Tri2 {
-    [0, 1, 2].map(|k| t.uv_pos[t.corner_uv[3 * f + k].idx()])
+fn tri(t: &Topology, pos: &[[f64; 2]], f: usize) -> Tri2 {
+    [0, 1, 2].map(|k| pos[t.corner_uv[3 * f + k].idx()])
 }
 
 #[inline]
@@ -185,11 +201,16 @@ fn folded(a2: f64, sign: f64) -> bool {
 /// Calls `found(f, g)` for every pair of faces of `faces` (f < g in list order) whose UV
 /// triangles overlap. A sort-based uniform grid: each pair is tested once, in the cell that holds
 /// the lower-left corner of the intersection of their boxes.
-fn overlapping_pairs(t: &Topology, faces: &[u32], mut found: impl FnMut(u32, u32)) {
+fn overlapping_pairs(
+    t: &Topology,
+    pos: &[[f64; 2]],
+    faces: &[u32],
+    mut found: impl FnMut(u32, u32),
+) {
     if faces.len() < 2 {
         return;
     }
-    let boxes: Vec<[f64; 4]> = faces.iter().map(|&f| bbox(&tri(t, f as usize))).collect();
+    let boxes: Vec<[f64; 4]> = faces.iter().map(|&f| bbox(&tri(t, pos, f as usize))).collect();
     let mean_extent =
         boxes.iter().map(|b| (b[2] - b[0]).max(b[3] - b[1])).sum::<f64>() / boxes.len() as f64;
     let cell = (2.0 * mean_extent).max(1e-9);
@@ -230,7 +251,8 @@ fn overlapping_pairs(t: &Topology, faces: &[u32], mut found: impl FnMut(u32, u32
                     continue;
                 }
                 let (f, g) = (faces[i], faces[j]);
-                if triangles_overlap_beyond_noise(tri(t, f as usize), tri(t, g as usize)) {
+                if triangles_overlap_beyond_noise(tri(t, pos, f as usize), tri(t, pos, g as usize))
+                {
                     found(f.min(g), f.max(g));
                 }
             }
@@ -240,14 +262,15 @@ fn overlapping_pairs(t: &Topology, faces: &[u32], mut found: impl FnMut(u32, u32
 }
 
 /// The orientation of a chart: the sign of its total signed UV area (positive when zero).
-fn chart_sign(t: &Topology, faces: &[u32]) -> f64 {
-    let area: f64 = faces.iter().map(|&f| signed_area2(tri(t, f as usize))).sum();
+fn chart_sign(t: &Topology, pos: &[[f64; 2]], faces: &[u32]) -> f64 {
+    let area: f64 = faces.iter().map(|&f| signed_area2(tri(t, pos, f as usize))).sum();
     if area < 0.0 { -1.0 } else { 1.0 }
 }
 
 /// The defects of one chart outside its anchor group: overlapping pairs and folded faces.
 fn defects(
     t: &Topology,
+    pos: &[[f64; 2]],
     faces: &[u32],
     anchored: &[bool],
     sign: f64,
@@ -256,14 +279,14 @@ fn defects(
 ) {
     pairs.clear();
     folds.clear();
-    overlapping_pairs(t, faces, |f, g| {
+    overlapping_pairs(t, pos, faces, |f, g| {
         if !(anchored[f as usize] && anchored[g as usize]) {
             pairs.push((f, g));
         }
     });
     pairs.sort_unstable();
     for &f in faces {
-        if !anchored[f as usize] && folded(signed_area2(tri(t, f as usize)), sign) {
+        if !anchored[f as usize] && folded(signed_area2(tri(t, pos, f as usize)), sign) {
             folds.push(f);
         }
     }
@@ -302,101 +325,205 @@ struct Region {
 
 /// Repairs the folds and self-overlaps of every chart outside the faces `anchored` marks (see
 /// [`crate::pack::anchor_faces`]). `face_chart` is the packing chart of each face (`u32::MAX` =
-/// not packed). Regions are repaired one after another in a fixed order, so the result does not
-/// depend on the thread count; a region whose every check does not pass is left exactly as it was.
+/// not packed). A chart's repairs read and move only that chart's faces, so the charts are shared
+/// out among the `solvers` (one worker each, on its own copy of the positions), and within a chart
+/// the regions are repaired one after another in a fixed order: the result does not depend on the
+/// number of solvers or threads. A region whose every check does not pass is left exactly as it
+/// was. The folds left are then turned over a side where they can be ([`flip_folds`]), one chart
+/// after another.
 pub fn untangle_charts(
     t: &mut Topology,
     face_chart: &[u32],
     n_charts: usize,
     anchored: &[bool],
-    solver: &mut dyn LocalSolver,
+    solvers: &mut [Box<dyn LocalSolver>],
     opts: &UntangleOptions,
 ) -> UntangleReport {
     let t0 = Instant::now();
     let mut report = UntangleReport::default();
     let lists = Lists::build(t, face_chart, n_charts);
-    let mut pairs = Vec::new();
-    let mut folds = Vec::new();
-    let mut uf: Vec<u32> = (0..face_chart.len() as u32).collect();
-    let mut walk = Walk { stamp: vec![0; face_chart.len()], epoch: 0, queue: Vec::new() };
-    let mut r = Region {
-        in_region: vec![false; face_chart.len()],
-        local: vec![u32::MAX; t.uv_pos.len()],
-        ..Region::default()
-    };
     // Finding the defects is most of the work on charts that have none: look for them in
-    // parallel first (read only, so the answer does not depend on the thread count), then
-    // repair the charts that have some one after another.
-    let dirty: Vec<bool> = {
+    // parallel first (read only).
+    let dirty: Vec<usize> = {
         let t = &*t;
-        (0..n_charts)
+        let flags: Vec<bool> = (0..n_charts)
             .into_par_iter()
             .map_init(
                 || (Vec::new(), Vec::new()),
                 |(pairs, folds), c| {
                     let faces = lists.chart(c);
-                    defects(t, faces, anchored, chart_sign(t, faces), pairs, folds);
+                    let sign = chart_sign(t, &t.uv_pos, faces);
+                    defects(t, &t.uv_pos, faces, anchored, sign, pairs, folds);
                     !(pairs.is_empty() && folds.is_empty())
                 },
             )
+            .collect();
+        (0..n_charts).filter(|&c| flags[c]).collect()
+    };
+    // Contiguous runs of the dirty charts, of about equal face counts, one per solver.
+    let total: usize = dirty.iter().map(|&c| lists.chart(c).len()).sum();
+    let n_groups = solvers.len().max(1);
+    let mut groups: Vec<&[usize]> = Vec::with_capacity(n_groups);
+    let (mut from, mut acc) = (0, 0);
+    for (i, &c) in dirty.iter().enumerate() {
+        acc += lists.chart(c).len();
+        if acc * n_groups >= total * (groups.len() + 1) && groups.len() + 1 < n_groups {
+            groups.push(&dirty[from..=i]);
+            from = i + 1;
+        }
+    }
+    groups.push(&dirty[from..]);
+    let repaired: Vec<(UntangleReport, Vec<[f64; 2]>, Vec<ChartLeft>)> = {
+        let t = &*t;
+        groups
+            .par_iter()
+            .zip(solvers.par_iter_mut())
+            .map(|(charts, solver)| {
+                let mut pos = t.uv_pos.clone();
+                let mut scratch = ChartScratch::new(t, face_chart.len());
+                let mut rep = UntangleReport::default();
+                let left: Vec<ChartLeft> = charts
+                    .iter()
+                    .map(|&c| {
+                        let ctx = ChartCtx {
+                            lists: &lists,
+                            faces: lists.chart(c),
+                            anchored,
+                            sign: chart_sign(t, &pos, lists.chart(c)),
+                            opts,
+                        };
+                        repair_chart(t, &mut pos, &ctx, solver.as_mut(), &mut scratch, &mut rep);
+                        ChartLeft { chart: c, sign: ctx.sign, folds: scratch.folds.clone() }
+                    })
+                    .collect();
+                (rep, pos, left)
+            })
             .collect()
     };
-    for c in (0..n_charts).filter(|&c| dirty[c]) {
-        let faces = lists.chart(c);
-        let sign = chart_sign(t, faces);
-        defects(t, faces, anchored, sign, &mut pairs, &mut folds);
-        report.overlapping_pairs += pairs.len() as u64;
-        report.folded_faces += folds.len() as u64;
-        // Regions: the defective faces outside the anchor group, joined through their pairs.
-        let mut seeds: Vec<u32> = folds.clone();
-        for &(f, g) in &pairs {
-            seeds.extend([f, g].into_iter().filter(|&x| !anchored[x as usize]));
-            if !anchored[f as usize] && !anchored[g as usize] {
-                let (a, b) = (root(&mut uf, f), root(&mut uf, g));
-                uf[a.max(b) as usize] = a.min(b);
-            }
-        }
-        seeds.sort_unstable();
-        seeds.dedup();
-        let mut groups: Vec<(u32, u32)> = seeds.iter().map(|&f| (root(&mut uf, f), f)).collect();
-        groups.sort_unstable();
-        for &f in &seeds {
-            uf[f as usize] = f;
-        }
-        let mut i = 0;
-        while i < groups.len() {
-            let mut j = i + 1;
-            while j < groups.len() && groups[j].0 == groups[i].0 {
-                j += 1;
-            }
-            report.regions += 1;
-            let seed: Vec<u32> = groups[i..j].iter().map(|&(_, f)| f).collect();
-            let ctx = ChartCtx { lists: &lists, faces, anchored, sign, opts };
-            match repair(t, &ctx, &seed, &mut r, solver) {
-                Ok(moved) => {
-                    report.regions_repaired += 1;
-                    report.faces_moved += moved;
+    // Every chart's vertices from the copy that repaired it, in chart order.
+    let mut lefts = Vec::with_capacity(dirty.len());
+    for (rep, pos, left) in repaired {
+        report.absorb(&rep);
+        for l in &left {
+            for &f in lists.chart(l.chart) {
+                for k in 0..3 {
+                    let v = t.corner_uv[3 * f as usize + k].idx();
+                    t.uv_pos[v] = pos[v];
                 }
-                Err(why) => report.failed.count(why),
             }
-            i = j;
         }
-        defects(t, faces, anchored, sign, &mut pairs, &mut folds);
-        if !folds.is_empty() {
-            report.folds_flipped += flip_folds(t, faces, &folds, sign, opts, &mut walk);
-            defects(t, faces, anchored, sign, &mut pairs, &mut folds);
-        }
-        report.overlapping_pairs_left += pairs.len() as u64;
-        report.folded_faces_left += folds.len() as u64;
+        lefts.extend(left);
     }
+    let mut walk = Walk { stamp: vec![0; face_chart.len()], epoch: 0, queue: Vec::new() };
+    for l in lefts.iter().filter(|l| !l.folds.is_empty()) {
+        report.folds_flipped +=
+            flip_folds(t, lists.chart(l.chart), &l.folds, l.sign, opts, &mut walk);
+    }
+    let (pairs_left, folds_left) = {
+        let t = &*t;
+        lefts
+            .par_iter()
+            .map_init(
+                || (Vec::new(), Vec::new()),
+                |(pairs, folds), l| {
+                    defects(t, &t.uv_pos, lists.chart(l.chart), anchored, l.sign, pairs, folds);
+                    (pairs.len() as u64, folds.len() as u64)
+                },
+            )
+            .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1))
+    };
+    report.overlapping_pairs_left = pairs_left;
+    report.folded_faces_left = folds_left;
     report.repair_ms = t0.elapsed().as_secs_f64() * 1e3;
     report
+}
+
+/// A repaired chart, its orientation and the faces it still has folded.
+struct ChartLeft {
+    chart: usize,
+    sign: f64,
+    folds: Vec<u32>,
+}
+
+/// Scratch of one worker's chart repairs, reused across charts.
+struct ChartScratch {
+    pairs: Vec<(u32, u32)>,
+    folds: Vec<u32>,
+    uf: Vec<u32>,
+    region: Region,
+}
+
+impl ChartScratch {
+    fn new(t: &Topology, n_faces: usize) -> Self {
+        Self {
+            pairs: Vec::new(),
+            folds: Vec::new(),
+            uf: (0..n_faces as u32).collect(),
+            region: Region {
+                in_region: vec![false; n_faces],
+                local: vec![u32::MAX; t.uv_pos.len()],
+                ..Region::default()
+            },
+        }
+    }
+}
+
+/// Repairs the regions of one chart in `pos`, counting into `report`; leaves the chart's
+/// remaining folds in `scratch.folds`.
+fn repair_chart(
+    t: &Topology,
+    pos: &mut [[f64; 2]],
+    ctx: &ChartCtx,
+    solver: &mut dyn LocalSolver,
+    scratch: &mut ChartScratch,
+    report: &mut UntangleReport,
+) {
+    let (faces, anchored, sign) = (ctx.faces, ctx.anchored, ctx.sign);
+    let ChartScratch { pairs, folds, uf, region: r } = scratch;
+    defects(t, pos, faces, anchored, sign, pairs, folds);
+    report.overlapping_pairs += pairs.len() as u64;
+    report.folded_faces += folds.len() as u64;
+    // Regions: the defective faces outside the anchor group, joined through their pairs.
+    let mut seeds: Vec<u32> = folds.clone();
+    for &(f, g) in pairs.iter() {
+        seeds.extend([f, g].into_iter().filter(|&x| !anchored[x as usize]));
+        if !anchored[f as usize] && !anchored[g as usize] {
+            let (a, b) = (root(uf, f), root(uf, g));
+            uf[a.max(b) as usize] = a.min(b);
+        }
+    }
+    seeds.sort_unstable();
+    seeds.dedup();
+    let mut groups: Vec<(u32, u32)> = seeds.iter().map(|&f| (root(uf, f), f)).collect();
+    groups.sort_unstable();
+    for &f in &seeds {
+        uf[f as usize] = f;
+    }
+    let mut i = 0;
+    while i < groups.len() {
+        let mut j = i + 1;
+        while j < groups.len() && groups[j].0 == groups[i].0 {
+            j += 1;
+        }
+        report.regions += 1;
+        let seed: Vec<u32> = groups[i..j].iter().map(|&(_, f)| f).collect();
+        match repair(t, pos, ctx, &seed, r, solver) {
+            Ok(moved) => {
+                report.regions_repaired += 1;
+                report.faces_moved += moved;
+            }
+            Err(why) => report.failed.count(why),
+        }
+        i = j;
+    }
+    defects(t, pos, faces, anchored, sign, pairs, folds);
 }
 
 /// Tries to repair one region, growing it ring by ring; returns the faces moved on success, or
 /// why the last attempt failed.
 fn repair(
-    t: &mut Topology,
+    t: &Topology,
+    pos: &mut [[f64; 2]],
     ctx: &ChartCtx,
     seed: &[u32],
     r: &mut Region,
@@ -410,7 +537,7 @@ fn repair(
     let mut result = Err(Failure::NoFreeVertex);
     for _ in 0..=ctx.opts.max_rings {
         grow(t, ctx.lists, ctx.anchored, r);
-        result = attempt(t, ctx, r, solver).map(|()| r.faces.len() as u64);
+        result = attempt(t, pos, ctx, r, solver).map(|()| r.faces.len() as u64);
         if result.is_ok() {
             break;
         }
@@ -441,7 +568,8 @@ fn grow(t: &Topology, lists: &Lists, anchored: &[bool], r: &mut Region) {
 /// One embedding, solve and check of the current region; leaves the layout changed only when
 /// it succeeds.
 fn attempt(
-    t: &mut Topology,
+    t: &Topology,
+    pos: &mut [[f64; 2]],
     ctx: &ChartCtx,
     r: &mut Region,
     solver: &mut dyn LocalSolver,
@@ -474,15 +602,15 @@ fn attempt(
         }
     }
     r.start.clear();
-    r.start.extend(r.verts.iter().map(|&v| t.uv_pos[v as usize]));
+    r.start.extend(r.verts.iter().map(|&v| pos[v as usize]));
     let result = if r.fixed.iter().any(|&x| !x) && r.fixed.iter().any(|&x| x) {
-        solve_region(t, ctx, r, solver)
+        solve_region(t, pos, ctx, r, solver)
     } else {
         Err(Failure::NoFreeVertex)
     };
     if result.is_err() {
         for (i, &v) in r.verts.iter().enumerate() {
-            t.uv_pos[v as usize] = r.start[i];
+            pos[v as usize] = r.start[i];
         }
     }
     for &v in &r.verts {
@@ -492,9 +620,10 @@ fn attempt(
     result
 }
 
-/// Tutte embedding, then the solver, then the checks; positions are written into `t`.
+/// Tutte embedding, then the solver, then the checks; positions are written into `pos`.
 fn solve_region(
-    t: &mut Topology,
+    t: &Topology,
+    pos: &mut [[f64; 2]],
     ctx: &ChartCtx,
     r: &mut Region,
     solver: &mut dyn LocalSolver,
@@ -546,9 +675,9 @@ fn solve_region(
         return Err(Failure::Distortion);
     }
     for (i, &v) in r.verts.iter().enumerate() {
-        t.uv_pos[v as usize] = p.uv[i];
+        pos[v as usize] = p.uv[i];
     }
-    if no_overlap(t, ctx.faces, r) { Ok(()) } else { Err(Failure::Overlap) }
+    if no_overlap(t, pos, ctx.faces, r) { Ok(()) } else { Err(Failure::Overlap) }
 }
 
 /// Whether every triangle has orientation `sign` and a non-degenerate area.
@@ -557,16 +686,16 @@ fn all_oriented(uv: &[[f64; 2]], triangles: &[[u32; 3]], sign: f64) -> bool {
 }
 
 /// Whether no face of the region overlaps any face of its chart (`chart_faces`).
-fn no_overlap(t: &Topology, chart_faces: &[u32], r: &Region) -> bool {
+fn no_overlap(t: &Topology, pos: &[[f64; 2]], chart_faces: &[u32], r: &Region) -> bool {
     let boxes: Vec<(u32, [f64; 4])> =
-        r.faces.iter().map(|&f| (f, bbox(&tri(t, f as usize)))).collect();
+        r.faces.iter().map(|&f| (f, bbox(&tri(t, pos, f as usize)))).collect();
     let Some(&(_, mut rb)) = boxes.first() else { return true };
     for (_, b) in &boxes {
         rb = [rb[0].min(b[0]), rb[1].min(b[1]), rb[2].max(b[2]), rb[3].max(b[3])];
     }
     for &g in chart_faces {
         let g = g as usize;
-        let tg = tri(t, g);
+        let tg = tri(t, pos, g);
         let bg = bbox(&tg);
         if !boxes_meet(&bg, &rb) {
             continue;
@@ -575,7 +704,7 @@ fn no_overlap(t: &Topology, chart_faces: &[u32], r: &Region) -> bool {
             if f as usize == g || (r.in_region[g] && (g as u32) < f) || !boxes_meet(&bf, &bg) {
                 continue;
             }
-            if triangles_overlap_beyond_noise(tri(t, f as usize), tg) {
+            if triangles_overlap_beyond_noise(tri(t, pos, f as usize), tg) {
                 return false;
             }
         }
@@ -687,7 +816,7 @@ fn flip_folds(
     let mut flipped = 0;
     for &f in folds {
         let f = f as usize;
-        let (cur, o) = (tri(t, f), orig(t, f));
+        let (cur, o) = (tri(t, &t.uv_pos, f), orig(t, f));
         if !folded(signed_area2(cur), sign) {
             continue;
         }
@@ -777,7 +906,7 @@ fn overlaps_chart(t: &Topology, chart_faces: &[u32], f: usize, tri_f: Tri2) -> b
         if g == f {
             return false;
         }
-        let tg = tri(t, g);
+        let tg = tri(t, &t.uv_pos, g);
         boxes_meet(&b, &bbox(&tg)) && triangles_overlap_beyond_noise(tri_f, tg)
     })
 }

@@ -196,12 +196,14 @@ pub fn defrag_with_progress(
         solvers.push(registry.solver(&cfg.solver, &cfg.solver_params)?);
     }
     let packer = registry.packer(&cfg.packer, &cfg.packer_params)?;
-    let mut untangle_solver = match cfg.untangle {
-        Some(_) if !cfg.merge_only => {
-            Some(registry.solver(&cfg.untangle_solver, &cfg.untangle_solver_params)?)
+    // The repair's solvers, one per worker likewise.
+    let mut untangle_solvers = Vec::new();
+    if cfg.untangle.is_some() && !cfg.merge_only {
+        for _ in 0..rayon::current_num_threads().max(1) {
+            untangle_solvers
+                .push(registry.solver(&cfg.untangle_solver, &cfg.untangle_solver_params)?);
         }
-        _ => None,
-    };
+    }
     if same_file(input, output) {
         return Err(PipelineError::Usage(format!(
             "the output {} is the input model; choose another output path",
@@ -257,7 +259,7 @@ pub fn defrag_with_progress(
         let face_area_3d: Vec<f64> = model.face_ids().map(|f| area_3d(&model, f)).collect();
         let corner_vert: Vec<u32> = topo.corner_uv.iter().map(|v| v.0).collect();
         let n = layout.n_charts;
-        if let (Some(opts), Some(solver)) = (&cfg.untangle, untangle_solver.as_mut()) {
+        if let (Some(opts), false) = (&cfg.untangle, untangle_solvers.is_empty()) {
             let anchored = anchor_faces(
                 &layout_input(
                     &topo,
@@ -274,7 +276,7 @@ pub fn defrag_with_progress(
                 &face_chart,
                 layout.n_charts,
                 &anchored,
-                solver.as_mut(),
+                &mut untangle_solvers,
                 opts,
             ));
         }
