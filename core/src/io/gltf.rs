@@ -11,7 +11,8 @@
 //! primitives without texture coordinates get placeholder `[0, 0]` UVs (their faces have
 //! `uv: None`). Primitives that share all their attribute accessors (and UV transform) share
 //! their vertices. Positions are as stored: node transforms are recorded in
-//! [`GltfScene::nodes`], not applied. UVs are converted to the OBJ convention (v up) after the
+//! [`GltfScene::nodes`], not applied; writers without a scene graph (OBJ, PLY, a fresh glTF
+//! document) apply them ([`with_node_transforms`]). UVs are converted to the OBJ convention (v up) after the
 //! base-colour texture's `KHR_texture_transform`, if any.
 
 mod accessor;
@@ -21,7 +22,10 @@ mod reader;
 mod refs;
 mod source;
 mod uri;
+mod world;
 mod writeback;
+
+pub use world::with_node_transforms;
 
 #[cfg(test)]
 mod tests;
@@ -90,5 +94,9 @@ pub fn write(model: &Model, path: &Path, opts: &WriteOptions, binary: bool) -> R
     {
         return Ok(());
     }
-    fresh::write(model, path, opts, binary)
+    // A fresh document has no nodes: its positions are the world positions.
+    match with_node_transforms(model) {
+        Some(world) => fresh::write(&world, path, opts, binary),
+        None => fresh::write(model, path, opts, binary),
+    }
 }

@@ -98,6 +98,12 @@ pub fn write_model(model: &Model, path: &Path, opts: &WriteOptions) -> Result<()
     if !model.path.as_os_str().is_empty() {
         opts.protect.push(model.path.clone());
     }
+    // OBJ and PLY hold no scene graph: a glTF model goes out at its world positions.
+    let world = match format {
+        ModelFormat::Obj | ModelFormat::Ply => gltf::with_node_transforms(model),
+        ModelFormat::Gltf | ModelFormat::Glb => None,
+    };
+    let model = world.as_ref().unwrap_or(model);
     match format {
         ModelFormat::Obj => obj::write(model, path, &opts),
         ModelFormat::Gltf => gltf::write(model, path, &opts, false),

@@ -710,7 +710,11 @@ fn mapping_lost_falls_back_to_a_fresh_document() {
     let out = dir.path().join("o.gltf");
     write(&m, &out, &WriteOptions::default(), false).unwrap();
     let m2 = read(&out).unwrap();
-    same_faces(&m, &m2);
+    // The fresh document has no node transform, so it holds the world positions (the quad's
+    // root node moves it by (5, 6, 7)).
+    let world = with_node_transforms(&m).expect("the root node moves the quad");
+    assert_eq!(world.positions[1], [6.0, 6.0, 7.0]);
+    same_faces(&world, &m2);
     assert!(scene(&m2).document["nodes"][0].get("name").is_none(), "fresh document");
 }
 
@@ -798,4 +802,43 @@ fn writer_refuses_to_overwrite_inputs() {
     assert!(write(&m, &p, &opts, false).is_err());
     assert!(!dir.path().join("in.bin").exists(), "no .bin written for a refused .gltf");
     assert_eq!(read(&p).unwrap().faces.len(), 2, "input intact");
+}
+
+#[test]
+fn writers_without_nodes_take_the_world_positions() {
+    // The mesh hangs under a child node turned a quarter about z, under a root moved by (5, 6, 7).
+    let mut fx = quad();
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    fx.doc["nodes"] = json!([
+        {"name": "root", "children": [1], "translation": [5.0, 6.0, 7.0]},
+        {"name": "turned", "mesh": 0, "rotation": [0.0, 0.0, h, h]},
+    ]);
+    let dir = tempfile::tempdir().unwrap();
+    let p = fx.write_gltf(dir.path(), "a.gltf", "a.bin");
+    let m = read(&p).unwrap();
+    check_quad(&m);
+    let world = |q: [f64; 3]| [5.0 - q[1], 6.0 + q[0], 7.0 + q[2]];
+    let near = |a: [f64; 3], b: [f64; 3]| (0..3).all(|k| (a[k] - b[k]).abs() < 1e-6);
+    for ext in ["obj", "ply"] {
+        let out = dir.path().join(format!("w.{ext}"));
+        crate::io::write_model(&m, &out, &WriteOptions::default()).unwrap();
+        let back = crate::io::read_model(&out).unwrap();
+        assert_eq!(back.faces.len(), m.faces.len());
+        for (f, g) in m.faces.iter().zip(&back.faces) {
+            for k in 0..3 {
+                let (a, b) = (m.positions[f.v[k].idx()], back.positions[g.v[k].idx()]);
+                assert!(near(world(a), b), "{ext}: {a:?} should be at {:?}, is {b:?}", world(a));
+            }
+        }
+        if ext == "obj" {
+            // The normal (0, 0, 1) is turned about z, so it stays (0, 0, 1).
+            let n = back.normals[back.faces[0].n.expect("normals")[0].idx()];
+            assert!(n.iter().zip([0.0, 0.0, 1.0]).all(|(a, b)| (a - b).abs() < 1e-6), "{n:?}");
+        }
+    }
+    // Written back as glTF the nodes stay, and so do the stored positions.
+    let out = dir.path().join("w.gltf");
+    crate::io::write_model(&m, &out, &WriteOptions::default()).unwrap();
+    assert_eq!(read(&out).unwrap().positions, m.positions);
+    assert!(with_node_transforms(&Model::default()).is_none());
 }
