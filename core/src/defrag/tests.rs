@@ -628,3 +628,42 @@ fn a_face_turned_over_onto_its_neighbour_is_turned_back() {
     assert_eq!(back.faces.len(), m.faces.len());
     assert_eq!(prepare(&back).report.uv_components, 1);
 }
+
+#[test]
+fn the_repair_gives_the_same_layout_whatever_the_number_of_workers() {
+    // Two charts, each with a vertex pulled across its neighbours (a fold in each).
+    let fold = |x0: f64, bent: [f64; 2]| {
+        move |q: [f64; 3]| {
+            let p = if [q[0], q[1]] == bent { [bent[0] + 1.4, 4.3] } else { [q[0], q[1]] };
+            [x0 + 4.0 * p[0], 10.0 + 4.0 * p[1]]
+        }
+    };
+    let m = two_halves(16, fold(10.0, [4.0, 4.0]), fold(100.0, [12.0, 4.0]));
+    let layouts: Vec<(Vec<[f64; 2]>, UntangleReport)> = [1usize, 2, 3]
+        .into_iter()
+        .map(|workers| {
+            let mut t = prepare(&m);
+            assert_eq!(t.report.charts, 2);
+            let face_chart: Vec<u32> = t.face_chart.iter().map(|c| c.0).collect();
+            let n = face_chart.len();
+            let mut solvers: Vec<Box<dyn LocalSolver>> =
+                (0..workers).map(|_| Box::new(Keep) as Box<dyn LocalSolver>).collect();
+            let r = untangle_charts(
+                &mut t,
+                &face_chart,
+                2,
+                &vec![false; n],
+                &mut solvers,
+                &Default::default(),
+            );
+            (t.uv_pos, UntangleReport { repair_ms: 0.0, ..r })
+        })
+        .collect();
+    let (first, report) = &layouts[0];
+    assert_eq!(report.regions, 2, "one fold in each chart: {report:?}");
+    assert_eq!(report.regions_repaired, 2, "{report:?}");
+    for (pos, r) in &layouts[1..] {
+        assert_eq!(pos, first);
+        assert_eq!(r, report);
+    }
+}
