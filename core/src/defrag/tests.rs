@@ -459,6 +459,13 @@ fn folded_grid() -> Model {
     two_halves(8, map, map)
 }
 
+/// Runs the repair with every face in one packing chart, anchored or not, and the `Keep` solver.
+fn untangle_as_one_chart(t: &mut Topology, anchored: bool) -> UntangleReport {
+    let n = t.face_chart.len();
+    let mut solvers = [Box::new(Keep) as Box<dyn LocalSolver>];
+    untangle_charts(t, &vec![0; n], 1, &vec![anchored; n], &mut solvers, &Default::default())
+}
+
 fn folded_and_overlapping(t: &Topology) -> (usize, usize) {
     let tri = |f: usize| [0, 1, 2].map(|k| t.uv_pos[t.corner_uv[3 * f + k].idx()]);
     let n = t.face_chart.len();
@@ -479,15 +486,7 @@ fn a_folded_fan_is_untangled_and_the_rest_stays() {
     let (folded, pairs) = folded_and_overlapping(&t);
     assert!(folded > 0 && pairs > 0, "the fixture folds: {folded} folded, {pairs} pairs");
     let before = t.uv_pos.clone();
-    let n = t.face_chart.len();
-    let report = untangle_charts(
-        &mut t,
-        &vec![0; n],
-        1,
-        &vec![false; n],
-        &mut [Box::new(Keep) as Box<dyn LocalSolver>],
-        &Default::default(),
-    );
+    let report = untangle_as_one_chart(&mut t, false);
     assert_eq!(report.folded_faces as usize, folded, "{report:?}");
     assert_eq!(report.regions_repaired, report.regions, "{report:?}");
     assert_eq!((report.folded_faces_left, report.overlapping_pairs_left), (0, 0), "{report:?}");
@@ -506,15 +505,7 @@ fn anchored_faces_are_never_untangled() {
     let m = folded_grid();
     let mut t = prepare(&m);
     let before = t.uv_pos.clone();
-    let n = t.face_chart.len();
-    let report = untangle_charts(
-        &mut t,
-        &vec![0; n],
-        1,
-        &vec![true; n],
-        &mut [Box::new(Keep) as Box<dyn LocalSolver>],
-        &Default::default(),
-    );
+    let report = untangle_as_one_chart(&mut t, true);
     assert_eq!((report.folded_faces, report.overlapping_pairs, report.regions), (0, 0, 0));
     assert_eq!(before, t.uv_pos);
 }
@@ -606,15 +597,7 @@ fn a_face_turned_over_onto_its_neighbour_is_turned_back() {
     assert_eq!(t.report.charts, 1);
     assert_eq!(folded_and_overlapping(&t).0, 1, "the ear is folded");
     let before = t.uv_pos.clone();
-    let n = t.face_chart.len();
-    let report = untangle_charts(
-        &mut t,
-        &vec![0; n],
-        1,
-        &vec![false; n],
-        &mut [Box::new(Keep) as Box<dyn LocalSolver>],
-        &Default::default(),
-    );
+    let report = untangle_as_one_chart(&mut t, false);
     assert_eq!(report.folds_flipped, 1, "{report:?}");
     assert_eq!((report.folded_faces_left, report.overlapping_pairs_left), (0, 0), "{report:?}");
     assert_eq!(folded_and_overlapping(&t), (0, 0));
