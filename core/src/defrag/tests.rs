@@ -318,7 +318,7 @@ fn a_sliver_whose_edge_placement_would_overlap_joins_at_a_corner() {
         charts_joined: 1,
         faces_joined: 1,
         faces_joined_at_corner: 1,
-        folded_charts: 0,
+        ..Default::default()
     };
     assert_eq!(r.zero_area, joined);
     assert_eq!(t.face_chart[4], t.face_chart[0]);
@@ -367,7 +367,7 @@ fn a_cap_that_would_overlap_at_every_turn_stays_in_its_chart() {
         charts_joined: 0,
         faces_joined: 0,
         faces_joined_at_corner: 0,
-        folded_charts: 0,
+        ..Default::default()
     };
     assert_eq!(r.zero_area, none);
     assert_eq!(r.charts_after, 2);
@@ -402,7 +402,7 @@ fn a_cap_that_shares_no_edge_joins_at_a_corner_with_its_own_shape() {
         charts_joined: 1,
         faces_joined: 1,
         faces_joined_at_corner: 1,
-        folded_charts: 0,
+        ..Default::default()
     };
     assert_eq!(r.zero_area, joined);
     assert_eq!(r.charts_after, 1, "{r:?}");
