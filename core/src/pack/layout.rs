@@ -7,6 +7,7 @@ use rayon::prelude::*;
 
 use super::anchor::{Anchor, RigidFace, best_group, compose, ranked_groups, rigid_image};
 use super::footprint::{EPS, cell_bounds, min_area_angle, rasterize};
+use super::texel_clash::{ChartClashes, separate};
 use super::{LayoutInput, PackError, PackOptions, PackReport, PackedLayout};
 use crate::geometry::GridTransform;
 use crate::plugin::{
@@ -297,6 +298,35 @@ fn chart_frame(
     Ok(frame)
 }
 
+/// Fits `frame` again around its vertices after some of them moved by a fraction of a texel:
+/// whole-texel shifts only, so every texel centre of the frame stays a texel centre.
+fn refit(frame: &mut Frame, verts: &[u32], frame_uv: &mut [[f64; 2]], pad: u32) {
+    for _ in 0..3 {
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for &v in verts {
+            let p = frame_uv[v as usize];
+            for k in 0..2 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let c = cell_bounds(lo, hi, pad);
+        frame.width = (c[2] - c[0]) as u32 + 1;
+        frame.height = (c[3] - c[1]) as u32 + 1;
+        if c[0] == 0.0 && c[1] == 0.0 {
+            return;
+        }
+        for &v in verts {
+            let p = &mut frame_uv[v as usize];
+            *p = [p[0] - c[0], p[1] - c[1]];
+        }
+        frame.b = [frame.b[0] + c[0] as i64, frame.b[1] + c[1] as i64];
+        if let Some(g0) = frame.g0.as_mut() {
+            g0.offset = [-frame.b[0], -frame.b[1]];
+        }
+    }
+}
+
 fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
@@ -458,6 +488,44 @@ pub fn pack_layout(
         (0..input.n_charts as u32).filter(|&c| frames[c as usize].is_some()).collect();
     report.charts = packed.len();
     report.anchors_ms = ms(t);
+
+    // (a') Texel clashes, separated chart by chart in parallel in the final frames (each chart's
+    // result is a pure function of it), then applied and the frames refitted in chart order.
+    let t = Instant::now();
+    if opts.separate_texel_clashes {
+        // The index of each UV vertex in its chart's vertex list.
+        let mut vert_local = vec![0u32; input.vert_uv.len()];
+        for &c in &packed {
+            for (i, &v) in verts.of(c as usize).iter().enumerate() {
+                vert_local[v as usize] = i as u32;
+            }
+        }
+        let found: Vec<ChartClashes> = packed
+            .par_iter()
+            .map(|&c| {
+                let c = c as usize;
+                separate(input, faces.of(c), verts.of(c), &vert_local, &frame_uv, |v| {
+                    !claim[v as usize][0].is_nan()
+                })
+            })
+            .collect();
+        for (&c, r) in packed.iter().zip(found) {
+            report.texel_clashes += r.found;
+            report.texel_clashes_left += r.left;
+            report.texel_clash_vertices_moved += r.moves.len();
+            if r.moves.is_empty() {
+                continue;
+            }
+            for (v, d) in r.moves {
+                let p = &mut frame_uv[v as usize];
+                *p = [p[0] + d[0], p[1] + d[1]];
+            }
+            if let Some(frame) = frames[c as usize].as_mut() {
+                refit(frame, verts.of(c as usize), &mut frame_uv, opts.padding);
+            }
+        }
+    }
+    report.texel_clash_ms = ms(t);
 
     // (b) Footprints, one per packed chart, rasterized in parallel (the result is independent of
     // the thread count: each footprint is a pure function of its chart).

@@ -12,6 +12,7 @@
 mod anchor;
 mod footprint;
 mod layout;
+mod texel_clash;
 
 #[cfg(test)]
 mod tests;
@@ -55,11 +56,20 @@ pub struct PackOptions {
     /// A face is a rigid image of its original triangle when every corner is within this many
     /// texels, relative to the triangle's size (at least 1 texel), of the best rigid fit.
     pub rigid_tolerance: f64,
+    /// Move free UV vertices by up to a texel so that no two faces of a chart cover the centre of
+    /// a texel they did not share in the input (see `texel_clash`).
+    pub separate_texel_clashes: bool,
 }
 
 impl Default for PackOptions {
     fn default() -> Self {
-        Self { padding: 4, max_sheet_size: None, anchor_min_fraction: 0.05, rigid_tolerance: 1e-6 }
+        Self {
+            padding: 4,
+            max_sheet_size: None,
+            anchor_min_fraction: 0.05,
+            rigid_tolerance: 1e-6,
+            separate_texel_clashes: true,
+        }
     }
 }
 
@@ -85,6 +95,11 @@ pub struct PackReport {
     pub oversized_charts: Vec<u32>,
     /// Texels of all trimmed output sheets.
     pub texels: u64,
+    /// Pairs of faces of one chart covering the centre of a texel they did not share in the
+    /// input, before and after the sub-texel moves that separate them, and the vertices moved.
+    pub texel_clashes: usize,
+    pub texel_clashes_left: usize,
+    pub texel_clash_vertices_moved: usize,
     /// Cells of all footprints (padding included).
     pub footprint_cells: u64,
     /// UV area of all packed faces over `texels`.
@@ -93,6 +108,7 @@ pub struct PackReport {
     pub max_sheet_size: (u32, u32),
     /// Wall-clock milliseconds per step (informative only; never affects the output).
     pub anchors_ms: f64,
+    pub texel_clash_ms: f64,
     pub footprints_ms: f64,
     pub packing_ms: f64,
     pub finish_ms: f64,

@@ -416,3 +416,105 @@ fn an_anchor_whose_turn_would_not_fit_a_sheet_is_dropped() {
     let out = pack_layout(&m.input(&SHEETS), &Shelf, &wide).unwrap();
     assert_eq!((out.report.anchors_dropped_to_fit, out.report.anchored_charts), (0, 1));
 }
+
+impl Mesh {
+    /// Adds a face with vertices of its own to `chart`, now at `cur`, originally at `orig`
+    /// (sheet 0), with 3D area `area`.
+    fn face(&mut self, chart: u32, cur: [[f64; 2]; 3], orig: [[f64; 2]; 3], area: f64) {
+        self.n_charts = self.n_charts.max(chart as usize + 1);
+        for k in 0..3 {
+            self.corner_vert.push(self.vert_uv.len() as u32);
+            self.vert_uv.push(cur[k]);
+            self.orig_uv.push(orig[k]);
+        }
+        self.face_chart.push(chart);
+        self.face_sheet.push(0);
+        self.face_area.push(area);
+    }
+}
+
+/// Whether two triangles both hold some texel centre strictly inside (exact predicates, a
+/// brute-force scan independent of the step under test).
+fn share_a_texel_centre(a: [[f64; 2]; 3], b: [[f64; 2]; 3]) -> bool {
+    use crate::geometry::predicates::point_in_triangle_strict;
+    let lo = |k: usize| a.iter().chain(&b).map(|p| p[k]).fold(f64::INFINITY, f64::min).floor();
+    let hi = |k: usize| a.iter().chain(&b).map(|p| p[k]).fold(f64::NEG_INFINITY, f64::max).ceil();
+    let (x0, x1, y0, y1) = (lo(0) as i64, hi(0) as i64, lo(1) as i64, hi(1) as i64);
+    (y0..=y1).any(|j| {
+        (x0..=x1).any(|i| {
+            let p = [i as f64 + 0.5, j as f64 + 0.5];
+            point_in_triangle_strict(p, a) && point_in_triangle_strict(p, b)
+        })
+    })
+}
+
+/// A chart made of two rigid pieces that overlap by a sliver: the big face sits on the input grid
+/// (so it anchors the chart), the small one is half a texel off its input position. In the input
+/// the sliver holds no texel centre; in the chart's frame it holds (11.5, 11.5).
+fn sliver_chart() -> Mesh {
+    let mut m = Mesh::default();
+    let big = [[10.0, 10.0], [14.0, 10.0], [10.0, 14.0]];
+    m.face(0, big, big, 8.0);
+    let small = [[11.2, 11.2], [14.0, 12.0], [12.0, 14.0]];
+    m.face(0, small, small.map(|p| [p[0] + 0.5, p[1] + 0.5]), 0.5);
+    m
+}
+
+fn out_tri(m: &Mesh, out: &PackedLayout, f: usize) -> [[f64; 2]; 3] {
+    [0, 1, 2].map(|k| out.vert_uv[m.corner_vert[3 * f + k] as usize])
+}
+
+#[test]
+fn a_sliver_that_would_share_a_texel_centre_is_moved_off_it() {
+    let m = sliver_chart();
+    let orig = |f: usize| [0, 1, 2].map(|k| m.orig_uv[3 * f + k]);
+    assert!(!share_a_texel_centre(orig(0), orig(1)), "the input shares no texel centre");
+
+    let off = PackOptions { separate_texel_clashes: false, ..PackOptions::default() };
+    let out = pack_layout(&m.input(&SHEETS), &Shelf, &off).unwrap();
+    assert!(out.face_preserved[0] && !out.face_preserved[1]);
+    assert!(share_a_texel_centre(out_tri(&m, &out, 0), out_tri(&m, &out, 1)), "left as it is");
+
+    let out = pack_layout(&m.input(&SHEETS), &Shelf, &PackOptions::default()).unwrap();
+    assert_eq!((out.report.texel_clashes, out.report.texel_clashes_left), (1, 0));
+    assert!(out.report.texel_clash_vertices_moved >= 1);
+    let (a, b) = (out_tri(&m, &out, 0), out_tri(&m, &out, 1));
+    assert!(!share_a_texel_centre(a, b), "{a:?} {b:?}");
+    // The preserved face is still exact; the moved one keeps its orientation, and each of its
+    // corners moved by at most a texel relative to the anchored face.
+    assert!(out.face_preserved[0]);
+    let g = out.chart_transform[0].unwrap();
+    let before = [0, 1, 2].map(|k| g.apply(m.vert_uv[3 + k]));
+    let area = |t: [[f64; 2]; 3]| {
+        (t[1][0] - t[0][0]) * (t[2][1] - t[0][1]) - (t[1][1] - t[0][1]) * (t[2][0] - t[0][0])
+    };
+    assert!(area(b) * area(before) > 0.0);
+    for k in 0..3 {
+        let d = (b[k][0] - before[k][0]).hypot(b[k][1] - before[k][1]);
+        assert!(d <= super::texel_clash::MAX_SHIFT + 1e-9, "corner {k} moved {d}");
+    }
+}
+
+#[test]
+fn faces_that_may_not_move_are_left_clashing_and_counted() {
+    let m = sliver_chart();
+    let input = m.input(&SHEETS);
+    let faces = [0u32, 1];
+    let verts: Vec<u32> = (0..6).collect();
+    // The sliver's corner inside the big face is held: turning its far corners by a texel
+    // cannot uncover the shared centre, which sits 0.3 texels from that corner.
+    let held = |v: u32| v <= 3;
+    let r = super::texel_clash::separate(&input, &faces, &verts, &verts, &m.vert_uv, held);
+    assert_eq!((r.found, r.left), (1, 1));
+    assert!(r.moves.iter().all(|&(v, _)| !held(v)), "{:?}", r.moves);
+    // With every vertex free the pair is separated, by moves of at most a texel.
+    let r = super::texel_clash::separate(&input, &faces, &verts, &verts, &m.vert_uv, |_| false);
+    assert_eq!((r.found, r.left), (1, 0));
+    let mut uv = m.vert_uv.clone();
+    for (v, d) in &r.moves {
+        assert!(d[0].hypot(d[1]) <= super::texel_clash::MAX_SHIFT + 1e-9);
+        uv[*v as usize] = [uv[*v as usize][0] + d[0], uv[*v as usize][1] + d[1]];
+    }
+    let tri = |f: usize| [0, 1, 2].map(|k| uv[3 * f + k]);
+    assert!(!share_a_texel_centre(tri(0), tri(1)));
+}
