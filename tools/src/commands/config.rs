@@ -16,7 +16,7 @@ use super::UsageError;
 use crate::cli::{DefragArgs, parse_sheet_size};
 
 /// The top-level keys a config file may hold (besides the plugin tables).
-pub const TOP_LEVEL_KEYS: [&str; 18] = [
+pub const TOP_LEVEL_KEYS: [&str; 19] = [
     "matching-tolerance",
     "boundary-tolerance",
     "local-distortion",
@@ -29,6 +29,7 @@ pub const TOP_LEVEL_KEYS: [&str; 18] = [
     "cluster-faces",
     "merge-only",
     "no-untangle",
+    "no-clash-separation",
     "scorer",
     "solver",
     "packer",
@@ -288,7 +289,13 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
         solver_params,
         packer,
         packer_params,
-        pack: PackOptions { padding, max_sheet_size, ..PackOptions::default() },
+        pack: PackOptions {
+            padding,
+            max_sheet_size,
+            separate_texel_clashes: !(args.no_clash_separation
+                || file.flag("no-clash-separation")?),
+            ..PackOptions::default()
+        },
         texture_format: args.texture_format.map(super::defrag::image_format),
         jpeg_quality,
         work_dir: args.work_dir.clone(),
