@@ -18,25 +18,8 @@ const MODELS: [&str; 3] = [
     "sketchfab-plane-meal/scene.gltf",
 ];
 
-fn evaluator_input_stats(model: &Path) -> serde_json::Value {
-    let evaluate =
-        std::env::var_os("SCANATLAS_EVALUATE").expect("SCANATLAS_EVALUATE must name evaluate.py");
-    let python = std::env::var_os("SCANATLAS_PYTHON").unwrap_or_else(|| "python3".into());
-    let out = Command::new(python)
-        .arg(evaluate)
-        .arg(model)
-        .arg(model)
-        .args(["--no-color", "--no-overlap"])
-        .output()
-        .expect("python runs");
-    assert!(out.status.success(), "evaluate.py failed: {}", String::from_utf8_lossy(&out.stderr));
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("evaluator prints JSON");
-    v["input"].clone()
-}
-
-/// The evaluator's comparison of `output` against `input` (texel overlaps included, colour left
-/// out).
-fn evaluator_comparison(input: &Path, output: &Path) -> serde_json::Value {
+/// The independent evaluator's JSON for `output` against `input`, with extra `flags`.
+fn evaluate(input: &Path, output: &Path, flags: &[&str]) -> serde_json::Value {
     let evaluate =
         std::env::var_os("SCANATLAS_EVALUATE").expect("SCANATLAS_EVALUATE must name evaluate.py");
     let python = std::env::var_os("SCANATLAS_PYTHON").unwrap_or_else(|| "python3".into());
@@ -44,11 +27,21 @@ fn evaluator_comparison(input: &Path, output: &Path) -> serde_json::Value {
         .arg(evaluate)
         .arg(input)
         .arg(output)
-        .arg("--no-color")
+        .args(flags)
         .output()
         .expect("python runs");
     assert!(out.status.success(), "evaluate.py failed: {}", String::from_utf8_lossy(&out.stderr));
     serde_json::from_slice(&out.stdout).expect("evaluator prints JSON")
+}
+
+fn evaluator_input_stats(model: &Path) -> serde_json::Value {
+    evaluate(model, model, &["--no-color", "--no-overlap"])["input"].clone()
+}
+
+/// The evaluator's comparison of `output` against `input` (texel overlaps included, colour left
+/// out).
+fn evaluator_comparison(input: &Path, output: &Path) -> serde_json::Value {
+    evaluate(input, output, &["--no-color"])
 }
 
 #[test]
