@@ -12,7 +12,8 @@
 //!
 //! Moves are tried one vertex at a time, on the corners of each clashing pair. A move is kept only
 //! when it separates pairs around the vertex (or, failing that, shrinks their overlap), keeps the
-//! orientation of every face it touches (a face folded against its chart may unfold), keeps the
+//! orientation of every face it touches (a face folded against its chart, or degenerate, may
+//! unfold or shrink but never grow the wrong way), keeps the
 //! area-weighted distortion of those faces against their original shapes within the paper's
 //! local threshold (or no worse than it was), and leaves the vertex within [`MAX_SHIFT`] texels
 //! of where the packer put it. Vertices of preserved faces never move, so the step costs no
@@ -69,6 +70,20 @@ struct Start {
     chart_sign: f64,
     /// [`Chart::patch_energy`] of each vertex.
     patch_energy: Vec<f64>,
+}
+
+impl Start {
+    fn of(chart: &Chart) -> Self {
+        let n = chart.tri.len() as u32;
+        let net: f64 = (0..n).map(|f| signed_area2(chart.tri_of(f))).sum();
+        Start {
+            pos: chart.pos.clone(),
+            sign: (0..n).map(|f| signed_area2(chart.tri_of(f)).signum()).collect(),
+            area2: (0..n).map(|f| signed_area2(chart.tri_of(f)).abs()).collect(),
+            chart_sign: if net < 0.0 { -1.0 } else { 1.0 },
+            patch_energy: (0..chart.pos.len() as u32).map(|v| chart.patch_energy(v)).collect(),
+        }
+    }
 }
 
 /// What the step did to one chart.
@@ -340,8 +355,11 @@ impl<'a> Chart<'a> {
         for &h in self.around(v) {
             let h = h as usize;
             let a = signed_area2(self.tri_of(h as u32));
-            let keeps = a * start.sign[h] > 0.0
-                || (start.sign[h] != start.chart_sign && a * start.chart_sign > 0.0);
+            // A face oriented with its chart keeps that orientation. A face folded against it,
+            // or degenerate, may unfold, or shrink, but never grow the wrong way: that would be a
+            // new fold.
+            let oriented = start.sign[h] == start.chart_sign && start.area2[h] >= 2.0 * DEGENERATE;
+            let keeps = a * start.chart_sign > 0.0 || (!oriented && a.abs() <= start.area2[h]);
             if !keeps || a.abs() < (2.0 * MIN_AREA).min(start.area2[h]) {
                 return false;
             }
@@ -414,18 +432,7 @@ pub(crate) fn separate(
     if found == 0 {
         return ChartClashes::default();
     }
-    let sign: Vec<f64> =
-        (0..faces.len() as u32).map(|f| signed_area2(chart.tri_of(f)).signum()).collect();
-    let area2: Vec<f64> =
-        (0..faces.len() as u32).map(|f| signed_area2(chart.tri_of(f)).abs()).collect();
-    let net: f64 = (0..faces.len() as u32).map(|f| signed_area2(chart.tri_of(f))).sum();
-    let start = Start {
-        pos: chart.pos.clone(),
-        sign,
-        area2,
-        chart_sign: if net < 0.0 { -1.0 } else { 1.0 },
-        patch_energy: (0..verts.len() as u32).map(|v| chart.patch_energy(v)).collect(),
-    };
+    let start = Start::of(&chart);
     let steps: Vec<[f64; 2]> = STEPS
         .iter()
         .flat_map(|&r| {
@@ -501,4 +508,40 @@ pub(crate) fn separate(
         .map(|(i, (p, s))| (verts[i], [p[0] - s[0], p[1] - s[1]]))
         .collect();
     ChartClashes { found, left, moves }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A face oriented with its chart and a degenerate one (area a hair below zero) sharing
+    /// vertex 0: the degenerate face may open up with the chart, never against it.
+    #[test]
+    fn a_degenerate_face_opens_only_with_its_chart() {
+        let corner_vert = [0, 1, 2, 0, 3, 4];
+        let uv = [[0.0, 0.0], [4.0, 0.0], [0.0, 4.0], [1.0, 1.0 + 1e-9], [2.0, 2.0]];
+        let orig = [[0.0, 0.0], [4.0, 0.0], [0.0, 4.0], [0.0, 0.0], [1.0, 1.0], [2.0, 2.0]];
+        let input = LayoutInput {
+            corner_vert: &corner_vert,
+            vert_uv: &uv,
+            orig_uv: &orig,
+            face_chart: &[0, 0],
+            face_sheet: &[0, 0],
+            face_area_3d: &[1.0, 0.0],
+            n_charts: 1,
+            input_sheet_sizes: &[(64, 64)],
+        };
+        let verts = [0, 1, 2, 3, 4];
+        let mut chart = Chart::new(&input, &[0, 1], &verts, &verts, &uv);
+        let start = Start::of(&chart);
+        assert!(start.sign[1] < 0.0 && start.area2[1] < 2e-6 && start.chart_sign > 0.0);
+        // Vertex 0 moved off the degenerate face's line: to one side it opens clockwise (against
+        // the chart), to the other counter-clockwise.
+        for (p, fits) in [([-0.2, 0.2], true), ([0.2, -0.2], false)] {
+            chart.pos[0] = p;
+            let a = signed_area2(chart.tri_of(1));
+            assert_eq!(a > 0.0, fits, "{p:?}: {a}");
+            assert_eq!(chart.faces_fit(0, &start), fits, "{p:?}");
+        }
+    }
 }
