@@ -23,7 +23,6 @@ use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::sparse::linalg::cholesky::{LdltRef, LltRef, SymbolicCholesky};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
-use rayon::prelude::*;
 use scanatlas_core::geometry::{
     EnergySum, Mat2, Tri2, closest_rotation_and_energy, energy_weight, isometric_energy,
     mean_isometric_energy, orientation, signed_area2,
@@ -123,103 +122,6 @@ struct Evaluation {
     admissible: bool,
     /// How many unguarded triangles are not oriented as expected.
     wrong: usize,
-}
-
-/// Patches with at least this many triangles run the local step on every core (see
-/// [`ArapSolver::local_step_parallel`]); smaller ones are not worth the hand-over.
-const PARALLEL_TRIANGLES: usize = 8192;
-
-/// How a triangle's orientation stands in an iterate.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-enum Orient {
-    #[default]
-    AsExpected,
-    /// A guarded triangle lost its orientation: the iterate is not admissible.
-    GuardLost,
-    /// An unguarded triangle is (still) not oriented as expected.
-    Wrong,
-}
-
-/// The local step of one triangle: the right-hand side term of the edge opposite each corner
-/// (added at the edge's first endpoint, subtracted at its second), the triangle's weighted energy
-/// and weight when it counts, and its orientation.
-#[derive(Clone, Copy, Debug, Default)]
-struct TriLocal {
-    d: [[f64; 2]; 3],
-    energy: Option<(f64, f64)>,
-    orient: Orient,
-}
-
-#[inline]
-fn tri_local(t: &TriData, target: &Tri2, uv: &[[f64; 2]]) -> TriLocal {
-    let x = corners(uv, t.v);
-    let orient = if orientation(x) == t.expected {
-        Orient::AsExpected
-    } else if t.guarded {
-        Orient::GuardLost
-    } else {
-        Orient::Wrong
-    };
-    let (rot, energy) = match t.finv {
-        Some(fi) => {
-            let (g1, g2) = (sub(x[1], x[0]), sub(x[2], x[0]));
-            let (rot, energy) = closest_rotation_and_energy([
-                [g1[0] * fi[0][0] + g2[0] * fi[1][0], g1[0] * fi[0][1] + g2[0] * fi[1][1]],
-                [g1[1] * fi[0][0] + g2[1] * fi[1][0], g1[1] * fi[0][1] + g2[1] * fi[1][1]],
-            ]);
-            let term = (t.energy_weight > 0.0 && energy.is_finite())
-                .then_some((t.energy_weight * energy, t.energy_weight));
-            (rot, term)
-        }
-        // No Jacobian for a degenerate target: keep its frame unrotated. Its energy is what the
-        // exact sum would give it (normally zero weight).
-        None => {
-            let term = if t.energy_weight > 0.0 {
-                let energy = isometric_energy(*target, x);
-                energy.is_finite().then_some((t.energy_weight * energy, t.energy_weight))
-            } else {
-                None
-            };
-            ([[1.0, 0.0], [0.0, 1.0]], term)
-        }
-    };
-    let frame = [[0.0, 0.0], t.p[0], t.p[1]];
-    let mut d = [[0.0; 2]; 3];
-    for (k, dk) in d.iter_mut().enumerate() {
-        let (ci, cj) = ((k + 1) % 3, (k + 2) % 3);
-        let e = sub(frame[ci], frame[cj]);
-        let w = t.w[k];
-        *dk =
-            [w * (rot[0][0] * e[0] + rot[0][1] * e[1]), w * (rot[1][0] * e[0] + rot[1][1] * e[1])];
-    }
-    TriLocal { d, energy, orient }
-}
-
-/// The evaluation of an iterate, summed over its triangles in order.
-#[derive(Default)]
-struct EvalSum {
-    sum: EnergySum,
-    lost: bool,
-    wrong: usize,
-}
-
-impl EvalSum {
-    #[inline]
-    fn add(&mut self, l: &TriLocal) {
-        if let Some((weighted, weight)) = l.energy {
-            self.sum.weighted += weighted;
-            self.sum.weight += weight;
-        }
-        match l.orient {
-            Orient::AsExpected => {}
-            Orient::GuardLost => self.lost = true,
-            Orient::Wrong => self.wrong += 1,
-        }
-    }
-
-    fn finish(self) -> Evaluation {
-        Evaluation { energy: self.sum.mean(), admissible: !self.lost, wrong: self.wrong }
-    }
 }
 
 /// The exact area-weighted mean isometric energy of the problem's current layout.
@@ -322,13 +224,6 @@ pub struct ArapSolver {
     trial: Vec<[f64; 2]>,
     /// faer's work space, grown on demand.
     mem: Option<MemBuffer>,
-    /// The parallel local step's per-triangle terms and, per row, the terms it gathers (see
-    /// [`Self::build_gather`]).
-    locals: Vec<TriLocal>,
-    gather_start: Vec<usize>,
-    gather: Vec<u32>,
-    /// Always take the serial local step (the tests compare both steps).
-    force_serial: bool,
 }
 
 impl std::fmt::Debug for ArapSolver {
@@ -721,19 +616,56 @@ impl ArapSolver {
     /// the same Jacobians. The evaluation uses `closest_rotation_and_energy`, equal to the exact
     /// energy up to rounding; the energy returned to the caller is recomputed exactly.
     fn local_step(&mut self, uv: &[[f64; 2]], targets: &[Tri2]) -> Evaluation {
-        if self.tris.len() >= PARALLEL_TRIANGLES && !self.force_serial {
-            return self.local_step_parallel(uv, targets);
-        }
         let nf = self.free.len();
         self.rhs.clear();
         self.rhs.extend_from_slice(&self.rhs_fixed);
-        let mut eval = EvalSum::default();
+        let mut sum = EnergySum::default();
+        let mut admissible = true;
+        let mut wrong = 0;
         for (t, target) in self.tris.iter().zip(targets) {
-            let l = tri_local(t, target, uv);
-            eval.add(&l);
+            let x = corners(uv, t.v);
+            if orientation(x) != t.expected {
+                if t.guarded {
+                    admissible = false;
+                } else {
+                    wrong += 1;
+                }
+            }
+            let rot = match t.finv {
+                Some(fi) => {
+                    let (g1, g2) = (sub(x[1], x[0]), sub(x[2], x[0]));
+                    let (rot, energy) = closest_rotation_and_energy([
+                        [g1[0] * fi[0][0] + g2[0] * fi[1][0], g1[0] * fi[0][1] + g2[0] * fi[1][1]],
+                        [g1[1] * fi[0][0] + g2[1] * fi[1][0], g1[1] * fi[0][1] + g2[1] * fi[1][1]],
+                    ]);
+                    if t.energy_weight > 0.0 && energy.is_finite() {
+                        sum.weighted += t.energy_weight * energy;
+                        sum.weight += t.energy_weight;
+                    }
+                    rot
+                }
+                // No Jacobian for a degenerate target: keep its frame unrotated. Its energy is
+                // what the exact sum would give it (normally zero weight).
+                None => {
+                    if t.energy_weight > 0.0 {
+                        let energy = isometric_energy(*target, x);
+                        if energy.is_finite() {
+                            sum.weighted += t.energy_weight * energy;
+                            sum.weight += t.energy_weight;
+                        }
+                    }
+                    [[1.0, 0.0], [0.0, 1.0]]
+                }
+            };
+            let frame = [[0.0, 0.0], t.p[0], t.p[1]];
             for k in 0..3 {
                 let (ci, cj) = ((k + 1) % 3, (k + 2) % 3);
-                let d = l.d[k];
+                let e = sub(frame[ci], frame[cj]);
+                let w = t.w[k];
+                let d = [
+                    w * (rot[0][0] * e[0] + rot[0][1] * e[1]),
+                    w * (rot[1][0] * e[0] + rot[1][1] * e[1]),
+                ];
                 let (ri, rj) = (self.row_of[t.v[ci] as usize], self.row_of[t.v[cj] as usize]);
                 if ri != NONE {
                     self.rhs[ri as usize] += d[0];
@@ -745,91 +677,7 @@ impl ArapSolver {
                 }
             }
         }
-        eval.finish()
-    }
-
-    /// [`Self::local_step`] on a large patch, on every core: the triangles' terms in parallel,
-    /// then each row of the right-hand side gathers its terms in parallel, in the order the
-    /// serial scatter adds them (triangle, then edge), and the energy is summed in triangle
-    /// order, so the result is bit-identical to the serial step whatever the thread count.
-    fn local_step_parallel(&mut self, uv: &[[f64; 2]], targets: &[Tri2]) -> Evaluation {
-        let nf = self.free.len();
-        if self.gather_start.len() != nf + 1 {
-            self.build_gather();
-        }
-        self.locals.resize(self.tris.len(), TriLocal::default());
-        self.locals
-            .par_iter_mut()
-            .zip(self.tris.par_iter())
-            .zip(targets.par_iter())
-            .with_min_len(1024)
-            .for_each(|((l, t), target)| *l = tri_local(t, target, uv));
-        let mut eval = EvalSum::default();
-        for l in &self.locals {
-            eval.add(l);
-        }
-        self.rhs.clear();
-        self.rhs.extend_from_slice(&self.rhs_fixed);
-        let (us, vs) = self.rhs.split_at_mut(nf);
-        let (start, gather, locals) = (&self.gather_start, &self.gather, &self.locals);
-        us.par_iter_mut().zip(vs.par_iter_mut()).enumerate().with_min_len(1024).for_each(
-            |(r, (u, v))| {
-                for &e in &gather[start[r]..start[r + 1]] {
-                    let i = (e >> 1) as usize;
-                    let d = locals[i / 3].d[i % 3];
-                    if e & 1 == 1 {
-                        *u -= d[0];
-                        *v -= d[1];
-                    } else {
-                        *u += d[0];
-                        *v += d[1];
-                    }
-                }
-            },
-        );
-        eval.finish()
-    }
-
-    /// For each row of the reduced system, the terms its right-hand side receives, in the order
-    /// of the serial scatter: `(3·triangle + edge) << 1 | subtracted`.
-    fn build_gather(&mut self) {
-        let nf = self.free.len();
-        self.gather_start.clear();
-        self.gather_start.resize(nf + 1, 0);
-        let rows = |t: &TriData, k: usize| {
-            let (ci, cj) = ((k + 1) % 3, (k + 2) % 3);
-            [(t.v[ci], 0u32), (t.v[cj], 1u32)]
-        };
-        for t in &self.tris {
-            for k in 0..3 {
-                for (v, _) in rows(t, k) {
-                    let r = self.row_of[v as usize];
-                    if r != NONE {
-                        self.gather_start[r as usize + 1] += 1;
-                    }
-                }
-            }
-        }
-        for r in 0..nf {
-            self.gather_start[r + 1] += self.gather_start[r];
-        }
-        self.gather.clear();
-        self.gather.resize(self.gather_start[nf], 0);
-        let mut fill = std::mem::take(&mut self.cursor);
-        fill.clear();
-        fill.extend_from_slice(&self.gather_start[..nf]);
-        for (ti, t) in self.tris.iter().enumerate() {
-            for k in 0..3 {
-                for (v, neg) in rows(t, k) {
-                    let r = self.row_of[v as usize];
-                    if r != NONE {
-                        self.gather[fill[r as usize]] = ((3 * ti + k) as u32) << 1 | neg;
-                        fill[r as usize] += 1;
-                    }
-                }
-            }
-        }
-        self.cursor = fill;
+        Evaluation { energy: sum.mean(), admissible, wrong }
     }
 
     /// The global step after [`Self::local_step`]: solves for the free vertices and writes the
@@ -887,8 +735,6 @@ impl LocalSolver for ArapSolver {
             return Ok(report);
         }
         self.prepare_triangles(problem);
-        // The parallel local step's gather lists belong to the previous problem.
-        self.gather_start.clear();
         // Triangles flipped at the start (a merge can fold some around a fused vertex) must be
         // undone first: the isometric energy ignores orientation, so a folded layout can score
         // lower than the unfolded one, and the best iterate is chosen by (wrong, energy).

@@ -474,31 +474,3 @@ fn timing_table() {
         assert!(report.energy_after < 0.5 * report.energy_before, "{report:?}");
     }
 }
-
-/// The parallel local step of large patches gives the very bits of the serial one, on one worker
-/// or several: a stretched 70 × 70 grid (9,522 triangles) solved both ways.
-#[test]
-fn the_parallel_local_step_is_bit_identical_to_the_serial_one() {
-    let (nx, ny) = (70, 70);
-    let (rest, tris) = grid(nx, ny, 0.15, [3.25, -7.5], 9);
-    assert!(tris.len() >= PARALLEL_TRIANGLES);
-    let before = problem(locally_stretched(&rest, nx, ny), &rest, tris, border_fixed(nx, ny));
-    let run = |serial: bool, threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| {
-            let mut solver = ArapSolver::new(ArapParams::default());
-            solver.force_serial = serial;
-            let mut p = before.clone();
-            let report = solver.solve(&mut p).expect("solve");
-            (p.uv.iter().map(|q| q.map(f64::to_bits)).collect::<Vec<_>>(), report)
-        })
-    };
-    let (serial_uv, serial_report) = run(true, 1);
-    assert!(serial_report.iterations > 1, "{serial_report:?}");
-    assert!(serial_uv != before.uv.iter().map(|q| q.map(f64::to_bits)).collect::<Vec<_>>());
-    for threads in [1, 2, 3] {
-        let (uv, report) = run(false, threads);
-        assert_eq!(report, serial_report, "{threads} threads");
-        assert!(uv == serial_uv, "{threads} threads: the layouts differ");
-    }
-}
