@@ -147,7 +147,7 @@ fn share_texel_centre(a: &Tri2, b: &Tri2, margin: f64) -> bool {
     shared && triangles_overlap(*a, *b)
 }
 
-/// One chart's faces, vertices and a uniform grid of face boxes, in local indices.
+/// One chart's faces, vertices and the faces near each face, in local indices.
 struct Chart<'a> {
     input: &'a LayoutInput<'a>,
     faces: &'a [u32],
@@ -322,8 +322,9 @@ impl<'a> Chart<'a> {
         false
     }
 
-    /// The overlap area of the clashing pairs counted by [`Self::clashes_around`]: how deep they
-    /// still are, so that a move that separates no pair yet but shrinks the overlap is progress.
+    /// The clashing pairs with at least one face around `v` (each pair once), and their overlap
+    /// area: how deep they still are, so that a move that separates no pair yet but shrinks the
+    /// overlap is progress.
     fn clash_depth_around(&self, v: u32) -> (usize, f64) {
         let around = self.around(v);
         let (mut n, mut depth) = (0, 0.0);
