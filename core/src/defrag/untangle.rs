@@ -344,9 +344,10 @@ pub fn untangle_charts(
     let lists = Lists::build(t, face_chart, n_charts);
     // Finding the defects is most of the work on charts that have none: look for them in
     // parallel first (read only).
-    let dirty: Vec<usize> = {
+    // The defects found are kept for the repair, which starts from them.
+    let mut found: Vec<Option<Defects>> = {
         let t = &*t;
-        let flags: Vec<bool> = (0..n_charts)
+        (0..n_charts)
             .into_par_iter()
             .map_init(
                 || (Vec::new(), Vec::new()),
@@ -354,12 +355,13 @@ pub fn untangle_charts(
                     let faces = lists.chart(c);
                     let sign = chart_sign(t, &t.uv_pos, faces);
                     defects(t, &t.uv_pos, faces, anchored, sign, pairs, folds);
-                    !(pairs.is_empty() && folds.is_empty())
+                    (!(pairs.is_empty() && folds.is_empty()))
+                        .then(|| Defects { pairs: pairs.clone(), folds: folds.clone() })
                 },
             )
-            .collect();
-        (0..n_charts).filter(|&c| flags[c]).collect()
+            .collect()
     };
+    let dirty: Vec<usize> = (0..n_charts).filter(|&c| found[c].is_some()).collect();
     // Contiguous runs of the dirty charts, of about equal face counts, one per solver.
     let total: usize = dirty.iter().map(|&c| lists.chart(c).len()).sum();
     let n_groups = solvers.len().max(1);
@@ -373,18 +375,24 @@ pub fn untangle_charts(
         }
     }
     groups.push(&dirty[from..]);
+    let group_found: Vec<Vec<Defects>> = groups
+        .iter()
+        .map(|g| g.iter().map(|&c| found[c].take().unwrap_or_default()).collect())
+        .collect();
     let repaired: Vec<(UntangleReport, Vec<[f64; 2]>, Vec<ChartLeft>)> = {
         let t = &*t;
         groups
             .par_iter()
+            .zip(group_found.into_par_iter())
             .zip(solvers.par_iter_mut())
-            .map(|(charts, solver)| {
+            .map(|((charts, found), solver)| {
                 let mut pos = t.uv_pos.clone();
                 let mut scratch = ChartScratch::new(t, face_chart.len());
                 let mut rep = UntangleReport::default();
                 let left: Vec<ChartLeft> = charts
                     .iter()
-                    .map(|&c| {
+                    .zip(found)
+                    .map(|(&c, found)| {
                         let ctx = ChartCtx {
                             lists: &lists,
                             faces: lists.chart(c),
@@ -392,8 +400,15 @@ pub fn untangle_charts(
                             sign: chart_sign(t, &pos, lists.chart(c)),
                             opts,
                         };
-                        repair_chart(t, &mut pos, &ctx, solver.as_mut(), &mut scratch, &mut rep);
-                        ChartLeft { chart: c, sign: ctx.sign, folds: scratch.folds.clone() }
+                        let s = &mut scratch;
+                        repair_chart(t, &mut pos, &ctx, found, solver.as_mut(), s, &mut rep);
+                        ChartLeft {
+                            chart: c,
+                            sign: ctx.sign,
+                            folds: scratch.folds.clone(),
+                            pairs_left: scratch.pairs.len() as u64,
+                            changed: false,
+                        }
                     })
                     .collect();
                 (rep, pos, left)
@@ -415,9 +430,10 @@ pub fn untangle_charts(
         lefts.extend(left);
     }
     let mut walk = Walk { stamp: vec![0; face_chart.len()], epoch: 0, queue: Vec::new() };
-    for l in lefts.iter().filter(|l| !l.folds.is_empty()) {
-        report.folds_flipped +=
-            flip_folds(t, lists.chart(l.chart), &l.folds, l.sign, opts, &mut walk);
+    for l in lefts.iter_mut().filter(|l| !l.folds.is_empty()) {
+        let flipped = flip_folds(t, lists.chart(l.chart), &l.folds, l.sign, opts, &mut walk);
+        report.folds_flipped += flipped;
+        l.changed = flipped > 0;
     }
     let (pairs_left, folds_left) = {
         let t = &*t;
@@ -426,6 +442,10 @@ pub fn untangle_charts(
             .map_init(
                 || (Vec::new(), Vec::new()),
                 |(pairs, folds), l| {
+                    // A chart whose folds no turn changed keeps the counts of its repair.
+                    if !l.changed {
+                        return (l.pairs_left, l.folds.len() as u64);
+                    }
                     defects(t, &t.uv_pos, lists.chart(l.chart), anchored, l.sign, pairs, folds);
                     (pairs.len() as u64, folds.len() as u64)
                 },
@@ -442,6 +462,16 @@ pub fn untangle_charts(
 struct ChartLeft {
     chart: usize,
     sign: f64,
+    folds: Vec<u32>,
+    /// Overlapping pairs left after the repair, and whether a fold was turned since.
+    pairs_left: u64,
+    changed: bool,
+}
+
+/// The defects of one chart (see [`defects`]), kept from the search for the repair.
+#[derive(Default)]
+struct Defects {
+    pairs: Vec<(u32, u32)>,
     folds: Vec<u32>,
 }
 
@@ -468,19 +498,20 @@ impl ChartScratch {
     }
 }
 
-/// Repairs the regions of one chart in `pos`, counting into `report`; leaves the chart's
-/// remaining folds in `scratch.folds`.
+/// Repairs the regions of one chart in `pos`, starting from the defects `found` in it, counting
+/// into `report`; leaves the chart's remaining overlapping pairs and folds in `scratch`.
 fn repair_chart(
     t: &Topology,
     pos: &mut [[f64; 2]],
     ctx: &ChartCtx,
+    found: Defects,
     solver: &mut dyn LocalSolver,
     scratch: &mut ChartScratch,
     report: &mut UntangleReport,
 ) {
     let (faces, anchored, sign) = (ctx.faces, ctx.anchored, ctx.sign);
     let ChartScratch { pairs, folds, uf, region: r } = scratch;
-    defects(t, pos, faces, anchored, sign, pairs, folds);
+    (*pairs, *folds) = (found.pairs, found.folds);
     report.overlapping_pairs += pairs.len() as u64;
     report.folded_faces += folds.len() as u64;
     // Regions: the defective faces outside the anchor group, joined through their pairs.
