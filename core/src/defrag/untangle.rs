@@ -531,6 +531,7 @@ fn repair_chart(
         uf[f as usize] = f;
     }
     let mut i = 0;
+    let mut repaired_any = false;
     while i < groups.len() {
         let mut j = i + 1;
         while j < groups.len() && groups[j].0 == groups[i].0 {
@@ -542,12 +543,17 @@ fn repair_chart(
             Ok(moved) => {
                 report.regions_repaired += 1;
                 report.faces_moved += moved;
+                repaired_any = true;
             }
             Err(why) => report.failed.count(why),
         }
         i = j;
     }
-    defects(t, pos, faces, anchored, sign, pairs, folds);
+    // A failed repair restores every position exactly, so a chart none of whose regions was
+    // repaired still has the defects it was found with.
+    if repaired_any {
+        defects(t, pos, faces, anchored, sign, pairs, folds);
+    }
 }
 
 /// Tries to repair one region, growing it ring by ring; returns the faces moved on success, or
