@@ -276,7 +276,7 @@ pub struct DefragArgs {
     #[arg(long)]
     pub no_untangle: bool,
     /// Leave texel clashes (two faces of a chart on a texel centre they did not share in the
-    /// input) as they are (by default free vertices move by up to a texel to separate them).
+    /// input) as they are (by default free vertices move by up to two texels to separate them).
     #[arg(long)]
     pub no_clash_separation: bool,
     /// Packer plugin (`horizon`, `skyline`) [default: horizon].

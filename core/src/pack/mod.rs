@@ -56,8 +56,8 @@ pub struct PackOptions {
     /// A face is a rigid image of its original triangle when every corner is within this many
     /// texels, relative to the triangle's size (at least 1 texel), of the best rigid fit.
     pub rigid_tolerance: f64,
-    /// Move free UV vertices by up to a texel so that no two faces of a chart cover the centre of
-    /// a texel they did not share in the input (see `texel_clash`).
+    /// Move free UV vertices by up to two texels so that no two faces of a chart cover the centre
+    /// of a texel they did not share in the input (see `texel_clash`).
     pub separate_texel_clashes: bool,
 }
 

@@ -481,7 +481,7 @@ fn a_sliver_that_would_share_a_texel_centre_is_moved_off_it() {
     let (a, b) = (out_tri(&m, &out, 0), out_tri(&m, &out, 1));
     assert!(!share_a_texel_centre(a, b), "{a:?} {b:?}");
     // The preserved face is still exact; the moved one keeps its orientation, and each of its
-    // corners moved by at most a texel relative to the anchored face.
+    // corners moved by at most `MAX_SHIFT` texels relative to the anchored face.
     assert!(out.face_preserved[0]);
     let g = out.chart_transform[0].unwrap();
     let before = [0, 1, 2].map(|k| g.apply(m.vert_uv[3 + k]));
@@ -497,17 +497,24 @@ fn a_sliver_that_would_share_a_texel_centre_is_moved_off_it() {
 
 #[test]
 fn faces_that_may_not_move_are_left_clashing_and_counted() {
-    let m = sliver_chart();
-    let input = m.input(&SHEETS);
     let faces = [0u32, 1];
     let verts: Vec<u32> = (0..6).collect();
-    // The sliver's corner inside the big face is held: turning its far corners by a texel
-    // cannot uncover the shared centre, which sits 0.3 texels from that corner.
+    // A deep overlap: the second face's corner pokes 5 texels into the big face, and in the
+    // input the two faces lie apart. With that corner and the big face held, its far corners
+    // would have to move 3.5 texels to uncover (12.5, 12.5): the pair is left, and counted.
+    let mut deep = Mesh::default();
+    let big = [[10.0, 10.0], [20.0, 10.0], [10.0, 20.0]];
+    deep.face(0, big, big, 50.0);
+    let poke = [[11.2, 11.2], [19.0, 14.0], [14.0, 19.0]];
+    deep.face(0, poke, poke.map(|p| [p[0] + 30.5, p[1] + 0.5]), 20.0);
     let held = |v: u32| v <= 3;
-    let r = super::texel_clash::separate(&input, &faces, &verts, &verts, &m.vert_uv, held);
+    let input = deep.input(&SHEETS);
+    let r = super::texel_clash::separate(&input, &faces, &verts, &verts, &deep.vert_uv, held);
     assert_eq!((r.found, r.left), (1, 1));
     assert!(r.moves.iter().all(|&(v, _)| !held(v)), "{:?}", r.moves);
-    // With every vertex free the pair is separated, by moves of at most a texel.
+    // The sliver with every vertex free is separated, by moves within the limit.
+    let m = sliver_chart();
+    let input = m.input(&SHEETS);
     let r = super::texel_clash::separate(&input, &faces, &verts, &verts, &m.vert_uv, |_| false);
     assert_eq!((r.found, r.left), (1, 0));
     let mut uv = m.vert_uv.clone();

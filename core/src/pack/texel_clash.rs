@@ -24,7 +24,7 @@ use crate::geometry::predicates::{orient2d, triangle_intersection_area, triangle
 use crate::geometry::{Tri2, isometric_energy, signed_area2};
 
 /// Largest total displacement of one vertex, in texels.
-pub(crate) const MAX_SHIFT: f64 = 1.0;
+pub(crate) const MAX_SHIFT: f64 = 2.0;
 
 /// A texel centre within this many texels of a face (outside it) still counts as covered, so that
 /// writing the UVs in single precision (glTF) cannot bring a separated centre back inside.
@@ -54,7 +54,7 @@ const MIN_DEPTH_GAIN: f64 = 0.01;
 
 /// Directions and step lengths tried for one vertex, shortest steps first.
 const DIRECTIONS: usize = 12;
-const STEPS: [f64; 6] = [0.1, 0.2, 0.35, 0.5, 0.75, 1.0];
+const STEPS: [f64; 8] = [0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.5, 2.0];
 
 /// Lattice points examined per pair before the pair is simply declared clashing (two large
 /// overlapping faces: no sub-texel move can separate them anyway).
@@ -157,8 +157,8 @@ struct Chart<'a> {
     /// Local faces around each local vertex: `vf_items[vf_start[v]..vf_start[v + 1]]`.
     vf_start: Vec<usize>,
     vf_items: Vec<u32>,
-    /// The faces that may ever clash with each face: those whose boxes, widened by
-    /// [`MAX_SHIFT`] (how far a vertex may move), meet its own, as `nb_items[nb_start[f]..]`.
+    /// The faces that may clash with each face, as `nb_items[nb_start[f]..]`: those whose boxes
+    /// meet its own, widened by [`MAX_SHIFT`] (how far a vertex may move) once moves begin.
     nb_start: Vec<usize>,
     nb_items: Vec<u32>,
     /// Faces whose three corners may not move: exact grid images of their input triangles, so
@@ -208,7 +208,7 @@ impl<'a> Chart<'a> {
             nb_items: Vec::new(),
             pinned,
         };
-        chart.find_neighbours();
+        chart.find_neighbours(0.0);
         chart
     }
 
@@ -225,14 +225,15 @@ impl<'a> Chart<'a> {
         &self.vf_items[self.vf_start[v as usize]..self.vf_start[v as usize + 1]]
     }
 
-    /// Fills the neighbour lists from a uniform grid whose cells are about twice the mean face
-    /// box, so a face meets a handful of cells.
-    fn find_neighbours(&mut self) {
+    /// Fills the neighbour lists with the faces whose boxes, widened by `widen`, meet, from a
+    /// uniform grid whose cells are about twice the mean face box, so a face meets a handful of
+    /// cells.
+    fn find_neighbours(&mut self, widen: f64) {
         let n = self.tri.len();
         let boxes: Vec<[f64; 4]> = (0..n as u32)
             .map(|f| {
                 let b = bbox(&self.tri_of(f));
-                [b[0] - MAX_SHIFT, b[1] - MAX_SHIFT, b[2] + MAX_SHIFT, b[3] + MAX_SHIFT]
+                [b[0] - widen, b[1] - widen, b[2] + widen, b[3] + widen]
             })
             .collect();
         let mean =
@@ -433,6 +434,8 @@ pub(crate) fn separate(
     if found == 0 {
         return ChartClashes::default();
     }
+    // Moves begin: faces may now reach anything within the widest move of their boxes.
+    chart.find_neighbours(MAX_SHIFT);
     let start = Start::of(&chart);
     let steps: Vec<[f64; 2]> = STEPS
         .iter()
