@@ -28,6 +28,8 @@ mod unfold;
 mod untangle;
 mod zero_area;
 
+pub(crate) use grid::tri_bbox;
+
 #[cfg(test)]
 mod tests;
 

@@ -20,6 +20,7 @@
 //! grid-preserved texel.
 
 use super::LayoutInput;
+use crate::defrag::tri_bbox;
 use crate::geometry::predicates::{orient2d, triangle_intersection_area, triangles_overlap};
 use crate::geometry::{Tri2, isometric_energy, signed_area2};
 
@@ -112,20 +113,10 @@ fn covers(t: &Tri2, s: f64, p: [f64; 2], margin: f64) -> bool {
     })
 }
 
-#[inline]
-fn bbox(t: &Tri2) -> [f64; 4] {
-    [
-        t[0][0].min(t[1][0]).min(t[2][0]),
-        t[0][1].min(t[1][1]).min(t[2][1]),
-        t[0][0].max(t[1][0]).max(t[2][0]),
-        t[0][1].max(t[1][1]).max(t[2][1]),
-    ]
-}
-
 /// Whether the interiors of `a` and `b` overlap and some texel centre is covered by both with
 /// `margin` (see [`covers`]).
 fn share_texel_centre(a: &Tri2, b: &Tri2, margin: f64) -> bool {
-    let (ba, bb) = (bbox(a), bbox(b));
+    let (ba, bb) = (tri_bbox(a), tri_bbox(b));
     let m = margin.min(0.0).abs();
     let lo = [ba[0].max(bb[0]) - m, ba[1].max(bb[1]) - m];
     let hi = [ba[2].min(bb[2]) + m, ba[3].min(bb[3]) + m];
@@ -232,7 +223,7 @@ impl<'a> Chart<'a> {
         let n = self.tri.len();
         let boxes: Vec<[f64; 4]> = (0..n as u32)
             .map(|f| {
-                let b = bbox(&self.tri_of(f));
+                let b = tri_bbox(&self.tri_of(f));
                 [b[0] - widen, b[1] - widen, b[2] + widen, b[3] + widen]
             })
             .collect();
