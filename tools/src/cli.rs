@@ -275,6 +275,10 @@ pub struct DefragArgs {
     /// are repaired wherever the output resamples anyway).
     #[arg(long)]
     pub no_untangle: bool,
+    /// Judge every merge on the solver's layout alone, as the paper does: no unfolding of the
+    /// fused starting layout, no separation of the overlapping triangles a solve leaves.
+    #[arg(long)]
+    pub no_solve_repair: bool,
     /// Leave texel clashes (two faces of a chart on a texel centre they did not share in the
     /// input) as they are (by default free vertices move by up to two texels to separate them).
     #[arg(long)]

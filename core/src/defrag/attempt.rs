@@ -7,8 +7,10 @@ use std::time::Instant;
 
 use super::RejectReason;
 use super::grid::tri_bbox;
+use super::kernel::unfold_start;
 use super::ops::{OpGeometry, dist};
 use super::patch::{find, union};
+use super::separate::area_bound;
 use super::state::{Engine, NONE, orig_tri};
 use crate::geometry::{
     Tri2, isometric_energy, signed_area2, triangles_overlap_beyond_noise as overlap,
@@ -215,6 +217,7 @@ impl Engine<'_> {
         if !ok {
             return Err(RejectReason::Topology);
         }
+        self.unfold_start_layout();
         self.start_uv.clear();
         self.start_uv.extend_from_slice(&self.problem.uv);
         let mut rerun = 0;
@@ -244,6 +247,13 @@ impl Engine<'_> {
                 }
                 Verdict::Reject(r) => return Err(r),
                 Verdict::Overlap => {
+                    if self.opts.solve_repair {
+                        self.report.separations += 1;
+                        if let Some(pass) = self.separate_and_judge(g) {
+                            self.report.separations_done += 1;
+                            return Ok(pass);
+                        }
+                    }
                     if rerun >= self.opts.max_freeze_retries || !self.freeze_offenders() {
                         if grown < self.opts.max_area_grows && self.grow_area(g) {
                             grown += 1;
@@ -332,11 +342,13 @@ impl Engine<'_> {
             let after = signed_area2(self.tri(f as usize));
             // A face of the chart's orientation must keep it; a degenerate one may open up, but
             // only the right way round (a zero-target face has no energy to keep it from
-            // flipping). Faces folded in the input are tolerated whatever they become.
+            // flipping). Faces folded in the input may end on either side, but not degenerate.
             let folded = if before >= DEGENERATE_AREA2 {
                 after.is_nan() || after < DEGENERATE_AREA2
+            } else if before > -DEGENERATE_AREA2 {
+                after.is_nan() || after <= -DEGENERATE_AREA2
             } else {
-                before > -DEGENERATE_AREA2 && (after.is_nan() || after <= -DEGENERATE_AREA2)
+                after.is_nan() || after.abs() < DEGENERATE_AREA2
             };
             if folded {
                 return Verdict::Reject(RejectReason::Fold);
@@ -360,12 +372,8 @@ impl Engine<'_> {
                 if s == f || (cs != g.a && cs != g.b) || (self.face_opt[s] && s < f) {
                     continue;
                 }
-                if !overlap(tri, self.tri(s)) {
-                    continue;
-                }
                 // Overlaps already present in the input chart are tolerated, never new ones.
-                let same_chart = cs == self.t.face_chart[f];
-                if same_chart && overlap(self.tri_before(f), self.tri_before(s)) {
+                if !self.pair_overlaps_anew(f, tri, s) {
                     continue;
                 }
                 self.offenders.push(f as u32);
@@ -376,6 +384,31 @@ impl Engine<'_> {
             Verdict::Pass { out_num, out_den, in_num }
         } else {
             Verdict::Overlap
+        }
+    }
+
+    /// Moves free vertices to separate the offending pairs and judges the result again; the
+    /// energies of a passing layout, or `None` (the offenders are then the pairs still
+    /// overlapping, or those of the first verdict if the new one failed on another check).
+    fn separate_and_judge(&mut self, g: &OpGeometry) -> Option<(f64, f64, f64)> {
+        self.sep_pairs.clear();
+        self.sep_pairs.extend_from_slice(&self.offenders);
+        let t = Instant::now();
+        let separated = self.separate_offenders(g, DEGENERATE_AREA2);
+        self.report.timings.separate_ms += ms(t);
+        if !separated {
+            return None;
+        }
+        let t = Instant::now();
+        let verdict = self.verdict(g);
+        self.report.timings.checks_ms += ms(t);
+        match verdict {
+            Verdict::Pass { out_num, out_den, in_num } => Some((out_num, out_den, in_num)),
+            Verdict::Overlap => None,
+            Verdict::Reject(_) => {
+                std::mem::swap(&mut self.offenders, &mut self.sep_pairs);
+                None
+            }
         }
     }
 
@@ -434,9 +467,36 @@ impl Engine<'_> {
         if !self.build_problem() {
             return false;
         }
+        self.unfold_start_layout();
         self.start_uv.clear();
         self.start_uv.extend_from_slice(&self.problem.uv);
         true
+    }
+
+    /// Unfolds the problem's starting layout where fusing folded it (see `kernel`): each face
+    /// must end where the fold check wants it (see `area_bound`).
+    fn unfold_start_layout(&mut self) {
+        if !self.opts.solve_repair {
+            return;
+        }
+        let p = &mut self.problem;
+        self.area_bounds.clear();
+        for (&f, tri) in self.opt_faces.iter().zip(&p.triangles) {
+            let now = signed_area2(tri.map(|v| p.uv[v as usize]));
+            self.area_bounds.push(area_bound(self.face_area2[f as usize], now, DEGENERATE_AREA2));
+        }
+        let folded = p
+            .triangles
+            .iter()
+            .zip(&self.area_bounds)
+            .any(|(tri, b)| !b.holds(signed_area2(tri.map(|v| p.uv[v as usize]))));
+        if !folded {
+            return;
+        }
+        self.report.start_folds += 1;
+        if unfold_start(&mut p.uv, &p.fixed, &p.triangles, &self.area_bounds, &mut self.kernel) {
+            self.report.start_folds_undone += 1;
+        }
     }
 
     /// Marks the free vertices of face `f` frozen, noting in `grew` whether any was new.

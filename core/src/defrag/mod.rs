@@ -19,9 +19,11 @@ mod attempt;
 mod clusters;
 mod greedy;
 mod grid;
+mod kernel;
 mod ops;
 mod output;
 mod patch;
+mod separate;
 mod state;
 mod undo;
 mod unfold;
@@ -72,6 +74,11 @@ pub struct MergeOptions {
     /// How many times an attempt left with overlaps that freezing cannot fix is solved again on
     /// a larger optimization area (see `Engine::grow_area`).
     pub max_area_grows: u32,
+    /// Repair what a solve cannot: unfold the fused starting layout by moving free vertices into
+    /// their kernels, and separate the overlapping triangles a solve leaves by short vertex moves
+    /// (see `kernel` and `separate`). Off, every merge is judged on the solver's layout alone, as
+    /// in the paper.
+    pub solve_repair: bool,
     /// The longest side, in texels, a merged chart's bounding box may have in the merge frame
     /// (0: no limit). The pipeline sets it to the output sheet side minus the padding on both
     /// sides, so that no merge makes a chart that cannot be packed on a sheet (the packer would
@@ -93,6 +100,7 @@ impl Default for MergeOptions {
             no_retry: false,
             max_freeze_retries: 10,
             max_area_grows: 1,
+            solve_repair: true,
             max_chart_extent: 0.0,
             cluster_faces: DEFAULT_CLUSTER_FACES,
         }
@@ -253,6 +261,7 @@ pub struct MergeTimings {
     pub build_problem_ms: f64,
     pub solve_ms: f64,
     pub checks_ms: f64,
+    pub separate_ms: f64,
     pub commit_ms: f64,
     pub rollback_ms: f64,
     pub total_ms: f64,
@@ -292,6 +301,14 @@ pub struct MergeReport {
     pub freeze_reruns: u64,
     /// Solves rerun on a larger optimization area.
     pub area_grows: u64,
+    /// Local problems whose fused starting layout folded a triangle, and those of them unfolded
+    /// by moving free vertices into their kernels before the solve.
+    pub start_folds: u64,
+    pub start_folds_undone: u64,
+    /// Solves that left overlapping triangles, and those of them whose pairs were separated by
+    /// moving free vertices (the layout was then judged again in full).
+    pub separations: u64,
+    pub separations_done: u64,
     /// Area-weighted mean isometric energy of the whole atlas against the input UVs.
     pub energy_before: f64,
     pub energy_after: f64,
@@ -346,6 +363,10 @@ impl MergeReport {
         self.vetoes.boundary += o.vetoes.boundary;
         self.freeze_reruns += o.freeze_reruns;
         self.area_grows += o.area_grows;
+        self.start_folds += o.start_folds;
+        self.start_folds_undone += o.start_folds_undone;
+        self.separations += o.separations;
+        self.separations_done += o.separations_done;
         self.max_accepted_local_energy =
             self.max_accepted_local_energy.max(o.max_accepted_local_energy);
         self.solver_iterations += o.solver_iterations;
@@ -363,6 +384,7 @@ impl MergeReport {
         t.build_problem_ms += u.build_problem_ms;
         t.solve_ms += u.solve_ms;
         t.checks_ms += u.checks_ms;
+        t.separate_ms += u.separate_ms;
         t.commit_ms += u.commit_ms;
         t.rollback_ms += u.rollback_ms;
     }

@@ -95,6 +95,14 @@ pub(crate) struct Engine<'t> {
     pub face_opt: Vec<bool>,
     pub frozen_list: Vec<u32>,
     pub base_fixed: Vec<bool>,
+    /// What each problem triangle's doubled area must satisfy, and the unfolding buffers.
+    pub area_bounds: Vec<super::kernel::AreaBound>,
+    /// Vertices and faces of the overlap separation (see `separate`).
+    pub sep_verts: Vec<u32>,
+    pub sep_faces: Vec<u32>,
+    pub sep_pairs: Vec<u32>,
+    pub sep_tests: Vec<(u32, u32)>,
+    pub kernel: super::kernel::KernelScratch,
 }
 
 /// The state of an engine that a cluster's fork copies (everything but scratch and logs).
@@ -345,6 +353,12 @@ impl<'t> Engine<'t> {
             groups: Vec::new(),
             face_opt: vec![false; nf],
             frozen_list: Vec::new(),
+            area_bounds: Vec::new(),
+            sep_verts: Vec::new(),
+            sep_faces: Vec::new(),
+            sep_pairs: Vec::new(),
+            sep_tests: Vec::new(),
+            kernel: Default::default(),
             base_fixed: Vec::new(),
             t,
         }

@@ -650,3 +650,71 @@ fn the_repair_gives_the_same_layout_whatever_the_number_of_workers() {
         assert_eq!(r, report);
     }
 }
+
+/// A fan of five 60° triangles around vertex 0, open between 300° and 360°. Chart a holds the
+/// first three as they are in 3D; chart b the last two, opened to 100° each in its UVs (and its
+/// copy of the centre a tenth of a texel off, so that fusing displaces it). Merged on their
+/// shared edge, b's last triangle covers 20° of a's first one.
+fn wide_fan() -> Model {
+    let mut p = vec![[0.0, 0.0, 0.0]];
+    for k in 0..6 {
+        let a = (60.0 * f64::from(k)).to_radians();
+        p.push([a.cos(), a.sin(), 0.0]);
+    }
+    let mut m = model_with(p);
+    let at = |o: [f64; 2], deg: f64| {
+        let a = deg.to_radians();
+        [o[0] + 10.0 * a.cos(), o[1] + 10.0 * a.sin()]
+    };
+    let a0 = [60.0, 60.0];
+    for k in 0..3u32 {
+        let t = [a0, at(a0, 60.0 * f64::from(k)), at(a0, 60.0 * f64::from(k + 1))];
+        add_face(&mut m, [0, 1 + k, 2 + k], t);
+    }
+    let (b0, centre) = ([180.0, 60.0], [180.1, 60.0]);
+    for k in 0..2u32 {
+        let t =
+            [centre, at(b0, 180.0 + 100.0 * f64::from(k)), at(b0, 280.0 + 100.0 * f64::from(k))];
+        add_face(&mut m, [0, 4 + k, 5 + k], t);
+    }
+    m
+}
+
+#[test]
+fn a_triangle_left_overlapping_after_the_solve_is_moved_off_its_neighbour() {
+    let m = wide_fan();
+    assert_eq!(prepare(&m).report.charts, 2);
+    // Everything free (α large) and no distortion limit, so that only the overlap decides.
+    let lax = MergeOptions {
+        alpha: 1e4,
+        local_distortion: 1e9,
+        global_distortion: 1e9,
+        ..MergeOptions::default()
+    };
+    // Judged on the solver's layout alone (here: the fused layout), the merge overlaps.
+    let (t, r) = run(&m, &MergeOptions { solve_repair: false, ..lax.clone() });
+    assert_eq!(r.accepted, 0, "{r:?}");
+    assert!(r.rejected.overlap >= 1, "{r:?}");
+    assert_eq!(t.report.charts, 2);
+    // With the repair the overlapping triangle is moved off and the merge goes through.
+    let (t, r) = run(&m, &lax);
+    assert_eq!((r.accepted, r.charts_after), (1, 1), "{r:?}");
+    assert!(r.separations_done >= 1, "{r:?}");
+    // The independent check on the written-back model: one component, every face wound the
+    // chart's way, no two faces overlapping.
+    let back = merged_model(&m, &t);
+    assert_eq!(prepare(&back).report.uv_components, 1);
+    let tri = |f: usize| {
+        let uv = back.faces[f].uv.expect("uvs");
+        uv.map(|u| back.uvs[u.idx()].map(|x| x * f64::from(SHEET)))
+    };
+    for f in 0..5 {
+        assert!(crate::geometry::signed_area2(tri(f)) > 0.0, "face {f} folded: {:?}", tri(f));
+        for g in 0..f {
+            assert!(
+                !crate::geometry::triangles_overlap_beyond_noise(tri(f), tri(g)),
+                "{f} overlaps {g}"
+            );
+        }
+    }
+}

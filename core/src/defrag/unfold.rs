@@ -22,6 +22,8 @@ const DEGENERATE_AREA2: f64 = 2e-6;
 const MAX_FACES: usize = 256;
 /// How many of a chart's largest faces are tried as the root of its net.
 const ROOTS: usize = 8;
+/// Texels between the nets of a forest (see `lay_out_net`); the charts are sub-texel debris.
+const ROOT_GAP: f64 = 1.0;
 
 /// What the pass did, for the run report.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
@@ -96,7 +98,10 @@ impl Engine<'_> {
             });
             roots.truncate(ROOTS);
             roots.retain(|&r| area(net.faces[r]) >= DEGENERATE_AREA2);
-            let laid = roots.into_iter().any(|r| self.lay_out_net(&mut net, r));
+            // A chart whose net cannot reach every face from one root (its faces meet at
+            // non-manifold edges, which link no UV twins) is laid out as a forest instead.
+            let laid = roots.iter().any(|&r| self.lay_out_net(&mut net, r, false))
+                || roots.first().is_some_and(|&r| self.lay_out_net(&mut net, r, true));
             if laid {
                 report.charts_unfolded += 1;
                 report.faces_moved += net.faces.len() as u64;
@@ -107,14 +112,37 @@ impl Engine<'_> {
     }
 
     /// Lays out the net of `net.faces` from root `root` (local index); true when every face
-    /// found a place that overlaps no other.
-    fn lay_out_net(&self, net: &mut Net, root: usize) -> bool {
+    /// found a place that overlaps no other. With `forest`, a face the net could not place
+    /// starts a net of its own (the largest such face first), right of everything placed so
+    /// far, so that every face finds a place.
+    fn lay_out_net(&self, net: &mut Net, root: usize, forest: bool) -> bool {
         let n = net.faces.len();
         net.placed.clear();
         net.placed.resize(n, None);
         net.via.clear();
         net.via.resize(n, usize::MAX);
-        // The root keeps its place, mirrored about its first corner when it winds clockwise.
+        net.queue.clear();
+        self.place_root(net, root, None);
+        self.grow_net(net);
+        #[allow(clippy::while_immutable_condition)] // It ends on `break`.
+        while forest {
+            let t = &*self.t;
+            let area = |i: usize| signed_area2(orig_tri(t, net.faces[i] as usize)).abs();
+            let next = (0..n)
+                .filter(|&i| net.placed[i].is_none())
+                .max_by(|&i, &j| area(i).total_cmp(&area(j)).then(j.cmp(&i)));
+            let Some(r) = next else { break };
+            let right =
+                net.placed.iter().flatten().map(|t| tri_bbox(t)[2]).fold(f64::MIN, f64::max);
+            self.place_root(net, r, Some(right + ROOT_GAP));
+            self.grow_net(net);
+        }
+        net.placed.iter().all(Option::is_some)
+    }
+
+    /// Places face `root` of the net as it is, mirrored about its first corner when it winds
+    /// clockwise, and with its left side moved to `left` when given; queues it.
+    fn place_root(&self, net: &mut Net, root: usize, left: Option<f64>) {
         let mut tri = self.tri(net.faces[root] as usize);
         if signed_area2(tri) < 0.0 {
             let x0 = tri[0][0];
@@ -122,9 +150,18 @@ impl Engine<'_> {
                 p[0] = 2.0 * x0 - p[0];
             }
         }
+        if let Some(left) = left {
+            let dx = left - tri_bbox(&tri)[0];
+            for p in &mut tri {
+                p[0] += dx;
+            }
+        }
         net.placed[root] = Some(tri);
-        net.queue.clear();
         net.queue.push(root);
+    }
+
+    /// Places every face reachable from the queued ones across UV edges, breadth first.
+    fn grow_net(&self, net: &mut Net) {
         let mut head = 0;
         while head < net.queue.len() {
             let i = net.queue[head];
@@ -173,7 +210,7 @@ impl Engine<'_> {
                 net.queue.push(j);
             }
         }
-        net.placed.iter().all(Option::is_some)
+        net.queue.clear();
     }
 
     /// Writes a laid-out net into chart `c`: new UV vertices (corners joined across the edges

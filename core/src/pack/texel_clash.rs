@@ -49,6 +49,12 @@ const DEGENERATE: f64 = 1e-6;
 /// A moved face keeps at least this UV area (texel²), or its starting area when smaller.
 const MIN_AREA: f64 = 0.05;
 
+/// A face folded against its chart may shrink further, down to this UV area (texel²): shrinking
+/// is how it stops covering a texel centre its neighbour covers, and its vertices are often
+/// shared with other small folded faces that may not grow. Still far above what single-precision
+/// UVs can flip (about 1e-3 texel² for a texel-sized face on a 4096² sheet).
+const MIN_FOLDED_AREA: f64 = 0.01;
+
 /// A move that separates no pair must shrink the overlap of the clashing pairs by this much
 /// (texel²) to count as progress.
 const MIN_DEPTH_GAIN: f64 = 0.01;
@@ -155,6 +161,10 @@ struct Chart<'a> {
     /// Faces whose three corners may not move: exact grid images of their input triangles, so
     /// two of them share in the output exactly the texel centres they shared in the input.
     pinned: Vec<bool>,
+    /// Faces folded against the chart when the step began: their distortion against an input
+    /// shape that is itself folded means nothing, so the energy tests leave them out (only their
+    /// orientation and area are watched).
+    folded: Vec<bool>,
 }
 
 impl<'a> Chart<'a> {
@@ -188,6 +198,7 @@ impl<'a> Chart<'a> {
             }
         }
         let pinned = vec![false; tri.len()];
+        let folded = vec![false; tri.len()];
         let mut chart = Chart {
             input,
             faces,
@@ -198,6 +209,7 @@ impl<'a> Chart<'a> {
             nb_start: Vec::new(),
             nb_items: Vec::new(),
             pinned,
+            folded,
         };
         chart.find_neighbours(0.0);
         chart
@@ -342,8 +354,9 @@ impl<'a> Chart<'a> {
 
     /// Whether the faces around `v` may take their current shape: each keeps its orientation
     /// (a face folded against the chart may unfold), stays clear of zero area, and the patch
-    /// around `v` stays within the distortion threshold, or no worse than it started.
-    fn faces_fit(&self, v: u32, start: &Start) -> bool {
+    /// around `v` stays within the distortion threshold, or no worse than it started or than
+    /// `before` (its energy before this move: moves of its neighbours may have raised it).
+    fn faces_fit(&self, v: u32, start: &Start, before: f64) -> bool {
         let (mut e, mut w) = (0.0, 0.0);
         for &h in self.around(v) {
             let h = h as usize;
@@ -353,8 +366,12 @@ impl<'a> Chart<'a> {
             // new fold.
             let oriented = start.sign[h] == start.chart_sign && start.area2[h] >= 2.0 * DEGENERATE;
             let keeps = a * start.chart_sign > 0.0 || (!oriented && a.abs() <= start.area2[h]);
-            if !keeps || a.abs() < (2.0 * MIN_AREA).min(start.area2[h]) {
+            let floor = if oriented { MIN_AREA } else { MIN_FOLDED_AREA };
+            if !keeps || a.abs() < (2.0 * floor).min(start.area2[h]) {
                 return false;
+            }
+            if self.folded[h] {
+                continue;
             }
             let orig = self.orig_of(h as u32);
             let wt = signed_area2(orig).abs();
@@ -362,13 +379,17 @@ impl<'a> Chart<'a> {
             w += wt;
         }
         let mean = if w > 0.0 { e / w } else { 0.0 };
-        mean.is_finite() && (mean <= MAX_ENERGY || mean <= start.patch_energy[v as usize])
+        mean.is_finite()
+            && (mean <= MAX_ENERGY || mean <= start.patch_energy[v as usize] || mean <= before)
     }
 
     /// The area-weighted mean isometric energy of the faces around `v`.
     fn patch_energy(&self, v: u32) -> f64 {
         let (mut e, mut w) = (0.0, 0.0);
         for &h in self.around(v) {
+            if self.folded[h as usize] {
+                continue;
+            }
             let orig = self.orig_of(h);
             let wt = signed_area2(orig).abs();
             e += wt * isometric_energy(orig, self.tri_of(h));
@@ -427,7 +448,11 @@ pub(crate) fn separate(
     }
     // Moves begin: faces may now reach anything within the widest move of their boxes.
     chart.find_neighbours(MAX_SHIFT);
-    let start = Start::of(&chart);
+    let mut start = Start::of(&chart);
+    for f in 0..chart.tri.len() {
+        chart.folded[f] = start.sign[f] != start.chart_sign && start.area2[f] >= 2.0 * DEGENERATE;
+    }
+    start.patch_energy = (0..chart.pos.len() as u32).map(|v| chart.patch_energy(v)).collect();
     let steps: Vec<[f64; 2]> = STEPS
         .iter()
         .flat_map(|&r| {
@@ -457,13 +482,14 @@ pub(crate) fn separate(
                 let (n0, d0) = chart.clash_depth_around(v);
                 let home = chart.pos[v as usize];
                 let s0 = start.pos[v as usize];
+                let e0 = chart.patch_energy(v);
                 for d in &steps {
                     let p = [home[0] + d[0], home[1] + d[1]];
                     if (p[0] - s0[0]).hypot(p[1] - s0[1]) > MAX_SHIFT {
                         continue;
                     }
                     chart.pos[v as usize] = p;
-                    if chart.faces_fit(v, &start) {
+                    if chart.faces_fit(v, &start, e0) {
                         let (n1, d1) = chart.clash_depth_around(v);
                         let gain = (n0.saturating_sub(n1), d0 - d1);
                         let progress = n1 < n0 || (n1 == n0 && gain.1 >= MIN_DEPTH_GAIN);
@@ -536,7 +562,7 @@ mod tests {
             chart.pos[0] = p;
             let a = signed_area2(chart.tri_of(1));
             assert_eq!(a > 0.0, fits, "{p:?}: {a}");
-            assert_eq!(chart.faces_fit(0, &start), fits, "{p:?}");
+            assert_eq!(chart.faces_fit(0, &start, 0.0), fits, "{p:?}");
         }
     }
 }

@@ -16,7 +16,7 @@ use super::UsageError;
 use crate::cli::{DefragArgs, parse_sheet_size};
 
 /// The top-level keys a config file may hold (besides the plugin tables).
-pub const TOP_LEVEL_KEYS: [&str; 19] = [
+pub const TOP_LEVEL_KEYS: [&str; 20] = [
     "matching-tolerance",
     "boundary-tolerance",
     "local-distortion",
@@ -30,6 +30,7 @@ pub const TOP_LEVEL_KEYS: [&str; 19] = [
     "merge-only",
     "no-untangle",
     "no-clash-separation",
+    "no-solve-repair",
     "scorer",
     "solver",
     "packer",
@@ -212,6 +213,7 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
         )?,
         time_limit: pick(args.time_limit, "time-limit", defaults.time_limit)?,
         no_retry: args.no_retry || file.flag("no-retry")?,
+        solve_repair: !(args.no_solve_repair || file.flag("no-solve-repair")?),
         cluster_faces: if args.serial || file.flag("serial")? {
             0
         } else {

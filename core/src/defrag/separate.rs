@@ -1,0 +1,252 @@
+//! Separation of the few overlapping triangles a solve leaves: free vertices of the offending
+//! pairs are moved one at a time, by the shortest step that lowers the number of overlapping
+//! pairs around them while every face keeps its orientation and its distortion stays bounded.
+//!
+//! ARAP knows nothing of overlap. Where a seam ends, slivers of the moved chart often stick out
+//! across the fused seam into a large triangle of the other chart, because their original shapes
+//! do; the solve keeps those shapes and the merge is rejected for a handful of triangles (on the
+//! Meshroom scan nearly all of its 600-odd overlap rejections overlapped already in the fused
+//! layout, two to eight pairs in patches of hundreds of faces). Pulling a sliver's tip back across
+//! the seam costs almost nothing in area-weighted distortion. The verdict is then taken again in
+//! full, so a separated layout passes only if every check of the paper passes.
+
+use super::grid::tri_bbox;
+use super::kernel::AreaBound;
+use super::ops::OpGeometry;
+use super::state::{Engine, NONE, orig_tri};
+use crate::geometry::{Tri2, isometric_energy, signed_area2, triangles_overlap_beyond_noise};
+
+/// Sweeps over the offending pairs.
+const PASSES: usize = 4;
+
+/// More overlapping pairs than this are not worth separating: on venus, solves that left more
+/// than 32 pairs were separated 4 times in 255 tries, for 60% of the separation time.
+const MAX_PAIRS: usize = 32;
+
+/// Step lengths tried for one vertex, as fractions of its mean incident edge length, shortest
+/// first; and the number of directions per length.
+const STEPS: [f64; 7] = [0.05, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0];
+const DIRECTIONS: usize = 12;
+
+/// The largest area-weighted mean distortion of the faces around a moved vertex (the paper's
+/// local threshold d), unless they were already above it and do not get worse.
+const MAX_ENERGY: f64 = 0.5;
+
+/// What the doubled area of a face must satisfy after the attempt, from its doubled area before
+/// the attempt and now: a face of the chart's orientation keeps twice the degenerate threshold
+/// (so rounding cannot bring it back to the fold check's threshold), a degenerate one must not
+/// turn the wrong way, and one folded before the attempt must not become degenerate (it keeps
+/// the side it is on now, or its old side when it is degenerate now).
+pub(crate) fn area_bound(before: f64, now: f64, degenerate: f64) -> AreaBound {
+    if before >= degenerate {
+        AreaBound { sign: 1.0, min: 2.0 * degenerate }
+    } else if before > -degenerate {
+        AreaBound { sign: 1.0, min: 0.0 }
+    } else if now >= 2.0 * degenerate {
+        AreaBound { sign: 1.0, min: 2.0 * degenerate }
+    } else {
+        AreaBound { sign: -1.0, min: 2.0 * degenerate }
+    }
+}
+
+impl Engine<'_> {
+    /// Tries to separate the pairs in `self.offenders` by moving free vertices; `true` when a
+    /// sweep left none of them overlapping (the caller judges the layout again in full).
+    pub(super) fn separate_offenders(&mut self, g: &OpGeometry, degenerate: f64) -> bool {
+        if self.offenders.len() > 2 * MAX_PAIRS {
+            return false;
+        }
+        for _ in 0..PASSES {
+            self.sep_verts.clear();
+            for i in 0..self.offenders.len() {
+                let f = self.offenders[i] as usize;
+                for k in 0..3 {
+                    let v = self.t.corner_uv[3 * f + k].0;
+                    if self.is_free(v) {
+                        self.sep_verts.push(v);
+                    }
+                }
+            }
+            self.sep_verts.sort_unstable();
+            self.sep_verts.dedup();
+            let mut moved = false;
+            for i in 0..self.sep_verts.len() {
+                let v = self.sep_verts[i];
+                moved |= self.separate_vertex(v, g, degenerate);
+            }
+            // Keep only the pairs that still overlap.
+            let mut w = 0;
+            for i in (0..self.offenders.len()).step_by(2) {
+                let (f, s) = (self.offenders[i] as usize, self.offenders[i + 1] as usize);
+                if triangles_overlap_beyond_noise(self.tri(f), self.tri(s)) {
+                    self.offenders[w] = f as u32;
+                    self.offenders[w + 1] = s as u32;
+                    w += 2;
+                }
+            }
+            self.offenders.truncate(w);
+            if self.offenders.is_empty() {
+                return true;
+            }
+            if !moved {
+                return false;
+            }
+        }
+        false
+    }
+
+    /// Moves vertex `v` by the shortest step (lowest distortion among the directions of that
+    /// length) that lowers the number of overlapping pairs around it; `true` if it moved.
+    fn separate_vertex(&mut self, v: u32, g: &OpGeometry, degenerate: f64) -> bool {
+        // The faces around v, their mean edge length, and every face of the two charts that any
+        // of them may reach within the longest step.
+        self.sep_faces.clear();
+        let mut c = self.fan_head[v as usize];
+        while c != NONE {
+            self.sep_faces.push(c / 3);
+            c = self.fan_next[c as usize];
+        }
+        let (mut len, mut bbox) =
+            (0.0, [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY]);
+        for &f in &self.sep_faces {
+            let tri = self.tri(f as usize);
+            for k in 0..3 {
+                len += dist(tri[k], tri[(k + 1) % 3]);
+            }
+            let b = tri_bbox(&tri);
+            bbox = [bbox[0].min(b[0]), bbox[1].min(b[1]), bbox[2].max(b[2]), bbox[3].max(b[3])];
+        }
+        let scale = len / (3 * self.sep_faces.len().max(1)) as f64;
+        if scale.is_nan() || scale <= 0.0 {
+            return false;
+        }
+        let reach = STEPS[STEPS.len() - 1] * scale;
+        self.candidates.clear();
+        self.grid.query(
+            [bbox[0] - reach, bbox[1] - reach, bbox[2] + reach, bbox[3] + reach],
+            &mut self.candidates,
+        );
+        // The pairs to watch: overlaps two faces of one chart had before the attempt stay
+        // tolerated wherever the vertex goes, so they are left out once here.
+        self.sep_tests.clear();
+        for i in 0..self.sep_faces.len() {
+            let f = self.sep_faces[i] as usize;
+            for j in 0..self.candidates.len() {
+                let s = self.candidates[j] as usize;
+                let cs = self.t.face_chart[s];
+                if s == f || (cs != g.a && cs != g.b) {
+                    continue;
+                }
+                let tolerated = cs == self.t.face_chart[f]
+                    && triangles_overlap_beyond_noise(self.tri_before(f), self.tri_before(s));
+                if !tolerated {
+                    self.sep_tests.push((f as u32, s as u32));
+                }
+            }
+        }
+        let p0 = self.t.uv_pos[v as usize];
+        // The overlapping pairs go first: a move must undo some of them before the others are
+        // worth testing, and it must undo more than it creates.
+        let mut count0 = 0;
+        for i in 0..self.sep_tests.len() {
+            let (f, s) = self.sep_tests[i];
+            if triangles_overlap_beyond_noise(self.tri(f as usize), self.tri(s as usize)) {
+                self.sep_tests.swap(i, count0);
+                count0 += 1;
+            }
+        }
+        if count0 == 0 {
+            return false;
+        }
+        let limit = MAX_ENERGY.max(self.energy_around());
+        for step in STEPS {
+            let mut best: Option<([f64; 2], f64)> = None;
+            for d in 0..DIRECTIONS {
+                let a = std::f64::consts::TAU * d as f64 / DIRECTIONS as f64;
+                let p = [p0[0] + step * scale * a.cos(), p0[1] + step * scale * a.sin()];
+                self.t.uv_pos[v as usize] = p;
+                if !self.faces_keep_orientation(degenerate) || !self.fewer_overlaps(count0) {
+                    continue;
+                }
+                let energy = self.energy_around();
+                if energy <= limit && best.is_none_or(|(_, e)| energy < e) {
+                    best = Some((p, energy));
+                }
+            }
+            self.t.uv_pos[v as usize] = p0;
+            if let Some((p, _)) = best {
+                self.log.pos.set(&mut self.t.uv_pos, v as usize, p);
+                for i in 0..self.sep_faces.len() {
+                    let f = self.sep_faces[i];
+                    let tri = self.tri(f as usize);
+                    self.grid.insert(f, &tri);
+                }
+                return true;
+            }
+        }
+        false
+    }
+
+    /// Whether every face in `sep_faces` keeps a doubled area its fold check accepts: the chart's
+    /// orientation for a face that had it, never the wrong way for a degenerate one, and never
+    /// degenerate for one folded before the attempt (on either side).
+    fn faces_keep_orientation(&self, degenerate: f64) -> bool {
+        self.sep_faces.iter().all(|&f| {
+            let (before, now) = (self.face_area2[f as usize], signed_area2(self.tri(f as usize)));
+            if before <= -degenerate {
+                now.abs() >= 2.0 * degenerate
+            } else {
+                area_bound(before, now, degenerate).holds(now)
+            }
+        })
+    }
+
+    /// Whether fewer of the pairs in `sep_tests` overlap than the first `count0`, which all did
+    /// before the move.
+    fn fewer_overlaps(&self, count0: usize) -> bool {
+        let overlaps = |&(f, s): &(u32, u32)| {
+            triangles_overlap_beyond_noise(self.tri(f as usize), self.tri(s as usize))
+        };
+        let undone = self.sep_tests[..count0].iter().filter(|p| !overlaps(p)).count();
+        if undone == 0 {
+            return false;
+        }
+        let mut created = 0;
+        for p in &self.sep_tests[count0..] {
+            if overlaps(p) {
+                created += 1;
+                if created >= undone {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
+    /// The area-weighted mean distortion of the faces in `sep_faces`.
+    fn energy_around(&self) -> f64 {
+        let (mut num, mut den) = (0.0, 0.0);
+        for &f in &self.sep_faces {
+            let f = f as usize;
+            let w = self.face_weight[f];
+            num += w * isometric_energy(orig_tri(self.t, f), self.tri(f));
+            den += w;
+        }
+        if den > 0.0 { num / den } else { 0.0 }
+    }
+
+    /// Whether face `f` (at `tri`) and face `s` overlap by the verdict's rules: overlaps that the
+    /// two faces of one chart already had before the attempt are tolerated.
+    pub(super) fn pair_overlaps_anew(&self, f: usize, tri: Tri2, s: usize) -> bool {
+        if !triangles_overlap_beyond_noise(tri, self.tri(s)) {
+            return false;
+        }
+        let same_chart = self.t.face_chart[s] == self.t.face_chart[f];
+        !(same_chart && triangles_overlap_beyond_noise(self.tri_before(f), self.tri_before(s)))
+    }
+}
+
+#[inline]
+fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
+    (a[0] - b[0]).hypot(a[1] - b[1])
+}
