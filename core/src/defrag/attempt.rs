@@ -19,7 +19,7 @@ use crate::plugin::LocalSolver;
 
 /// Twice the evaluator's degenerate-area threshold (1e-6 texel²): a triangle whose doubled area
 /// falls below this has become degenerate.
-const DEGENERATE_AREA2: f64 = 2e-6;
+pub(super) const DEGENERATE_AREA2: f64 = 2e-6;
 
 #[inline]
 fn ms(t: Instant) -> f64 {

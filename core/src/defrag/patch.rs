@@ -3,8 +3,10 @@
 //! triangles as targets, digest §5.5) and its topology check (each connected part must be a
 //! disk-like surface: genus 0 with at least one boundary loop, no edge with three triangles).
 
+use super::attempt::DEGENERATE_AREA2;
 use super::ops::dist;
 use super::state::{Engine, NONE, OrdF64, orig_tri};
+use crate::geometry::signed_area2;
 
 /// Union-find root with path halving.
 #[inline]
@@ -116,7 +118,15 @@ impl Engine<'_> {
             }
             p.triangles.push(tri);
             let mut target = orig_tri(self.t, f as usize);
+            // The target takes the orientation the face has now (mirrored charts, and faces
+            // folded in the input that an earlier step turned over), so that the solver keeps
+            // every face the way the fold check wants it. Mirroring leaves the isometric energy
+            // unchanged.
             if self.face_mirrored[f as usize] {
+                target.iter_mut().for_each(|q| q[0] = -q[0]);
+            }
+            let now = self.face_area2[f as usize];
+            if now.abs() >= DEGENERATE_AREA2 && signed_area2(target) * now < 0.0 {
                 target.iter_mut().for_each(|q| q[0] = -q[0]);
             }
             p.targets.push(target);

@@ -39,6 +39,10 @@ const IN_MARGIN: f64 = 1e-6;
 /// it only if it exceeded it before and does not get worse.
 const MAX_ENERGY: f64 = 0.5;
 
+/// Faces around a vertex whose original areas add up to less than this (texel²) are not held to
+/// the distortion threshold (see `faces_fit`).
+const MIN_JUDGED_AREA: f64 = 2.0;
+
 /// Passes over the clashing pairs; each pass tries every pair still clashing once.
 const PASSES: usize = 8;
 
@@ -379,8 +383,11 @@ impl<'a> Chart<'a> {
             w += wt;
         }
         let mean = if w > 0.0 { e / w } else { 0.0 };
-        mean.is_finite()
-            && (mean <= MAX_ENERGY || mean <= start.patch_energy[v as usize] || mean <= before)
+        // `w` is twice the original area of the faces judged: below `MIN_JUDGED_AREA` their
+        // distortion moves the colour of a texel or two at most, which the clash itself spoils.
+        w < 2.0 * MIN_JUDGED_AREA
+            || (mean.is_finite()
+                && (mean <= MAX_ENERGY || mean <= start.patch_energy[v as usize] || mean <= before))
     }
 
     /// The area-weighted mean isometric energy of the faces around `v`.
