@@ -718,3 +718,43 @@ fn a_triangle_left_overlapping_after_the_solve_is_moved_off_its_neighbour() {
         }
     }
 }
+
+/// The folded octahedron with two fins on its edge 1–2, mirrored onto each other in UV: the edge
+/// has four faces, so it links no UV twins, and a net grown from one root reaches neither fin.
+fn folded_octahedron_with_fins() -> Model {
+    let mut m = folded_octahedron();
+    m.positions.push([0.5, 0.5, 0.8]);
+    m.positions.push([0.5, 0.5, -0.8]);
+    let tex = |v: u32, m: &Model| {
+        let q = m.positions[v as usize];
+        [100.0 + 8.0 * q[0], 100.0 + 8.0 * q[1]]
+    };
+    let fin = [100.0 + 8.0 * 0.9, 100.0 + 8.0 * 0.9];
+    for (f, tip) in [([1, 2, 6], fin), ([2, 1, 7], fin)] {
+        let t = [tex(f[0], &m), tex(f[1], &m), tip];
+        add_face(&mut m, f, t);
+    }
+    m
+}
+
+#[test]
+fn a_folded_chart_whose_faces_meet_at_a_non_manifold_edge_is_unfolded_as_a_forest() {
+    let m = folded_octahedron_with_fins();
+    let t0 = prepare(&m);
+    assert_eq!(t0.report.charts, 1, "{:?}", t0.report);
+    let (t, r) = run(&m, &MergeOptions::default());
+    assert_eq!(r.unfold, UnfoldReport { folded_charts: 1, charts_unfolded: 1, faces_moved: 10 });
+    // Every face wound one way with its own shape, no two overlapping, in the written-back model.
+    let back = merged_model(&m, &t);
+    assert_eq!(back.faces.len(), m.faces.len());
+    let tri = |f: usize| {
+        let uv = back.faces[f].uv.expect("uvs");
+        uv.map(|u| back.uvs[u.idx()].map(|x| x * f64::from(SHEET)))
+    };
+    for f in 0..10 {
+        assert!(crate::geometry::signed_area2(tri(f)) > 1e-3, "face {f} winds back: {:?}", tri(f));
+        for g in 0..f {
+            assert!(!crate::geometry::triangles_overlap(tri(f), tri(g)), "{f} overlaps {g}");
+        }
+    }
+}
