@@ -394,7 +394,7 @@ impl Engine<'_> {
         self.sep_pairs.clear();
         self.sep_pairs.extend_from_slice(&self.offenders);
         let t = Instant::now();
-        let separated = self.separate_offenders(g, DEGENERATE_AREA2);
+        let separated = self.separate_offenders(g);
         self.report.timings.separate_ms += ms(t);
         if !separated {
             return None;
@@ -483,19 +483,13 @@ impl Engine<'_> {
         self.area_bounds.clear();
         for (&f, tri) in self.opt_faces.iter().zip(&p.triangles) {
             let now = signed_area2(tri.map(|v| p.uv[v as usize]));
-            self.area_bounds.push(area_bound(self.face_area2[f as usize], now, DEGENERATE_AREA2));
+            self.area_bounds.push(area_bound(self.face_area2[f as usize], now));
         }
-        let folded = p
-            .triangles
-            .iter()
-            .zip(&self.area_bounds)
-            .any(|(tri, b)| !b.holds(signed_area2(tri.map(|v| p.uv[v as usize]))));
-        if !folded {
-            return;
-        }
-        self.report.start_folds += 1;
-        if unfold_start(&mut p.uv, &p.fixed, &p.triangles, &self.area_bounds, &mut self.kernel) {
-            self.report.start_folds_undone += 1;
+        let unfolded =
+            unfold_start(&mut p.uv, &p.fixed, &p.triangles, &self.area_bounds, &mut self.kernel);
+        if let Some(done) = unfolded {
+            self.report.start_folds += 1;
+            self.report.start_folds_undone += u64::from(done);
         }
     }
 

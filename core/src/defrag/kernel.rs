@@ -10,6 +10,7 @@
 //! moved into its kernel unfolds every triangle around it and breaks none, so each move makes
 //! progress; the solver then starts from a layout without folds and keeps it that way.
 
+use super::ops::dist;
 use crate::geometry::Tri2;
 
 /// How many sweeps over the folded triangles are made before giving up.
@@ -45,19 +46,19 @@ pub(crate) struct KernelScratch {
 }
 
 /// Relocates free vertices of `uv` until every triangle t meets `bounds[t]` (counter-clockwise
-/// is positive). Returns whether that was reached; the layout may be changed either way (a move
-/// never breaks a bound that held). Vertices are visited in index order, so the result is
-/// deterministic.
+/// is positive). Returns `None` when every bound held already, else whether they all hold now;
+/// the layout may be changed either way (a move never breaks a bound that held). Vertices are
+/// visited in index order, so the result is deterministic.
 pub(crate) fn unfold_start(
     uv: &mut [[f64; 2]],
     fixed: &[bool],
     triangles: &[[u32; 3]],
     bounds: &[AreaBound],
     s: &mut KernelScratch,
-) -> bool {
+) -> Option<bool> {
     let folded = |uv: &[[f64; 2]], t: usize| !bounds[t].holds(area2(uv, triangles[t]));
     if !(0..triangles.len()).any(|t| folded(uv, t)) {
-        return true;
+        return None;
     }
     build_incidence(uv.len(), triangles, bounds, s);
     for _ in 0..MAX_SWEEPS {
@@ -68,7 +69,7 @@ pub(crate) fn unfold_start(
             }
         }
         if s.queue.is_empty() {
-            return true;
+            return Some(true);
         }
         s.queue.sort_unstable();
         s.queue.dedup();
@@ -119,7 +120,7 @@ pub(crate) fn unfold_start(
             break;
         }
     }
-    !(0..triangles.len()).any(|t| folded(uv, t))
+    Some(!(0..triangles.len()).any(|t| folded(uv, t)))
 }
 
 /// Fills `s.start`/`s.tris` with the constrained triangles around each vertex.
@@ -205,11 +206,6 @@ fn area2(uv: &[[f64; 2]], tri: [u32; 3]) -> f64 {
     crate::geometry::signed_area2(t)
 }
 
-#[inline]
-fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
-    (a[0] - b[0]).hypot(a[1] - b[1])
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -235,7 +231,10 @@ mod tests {
         let floor = vec![FLOOR; tris.len()];
         let folded_before = tris.iter().filter(|&&t| !FLOOR.holds(area2(&uv, t))).count();
         assert!(folded_before > 0);
-        assert!(unfold_start(&mut uv, &fixed, &tris, &floor, &mut KernelScratch::default()));
+        assert_eq!(
+            unfold_start(&mut uv, &fixed, &tris, &floor, &mut KernelScratch::default()),
+            Some(true)
+        );
         assert!(tris.iter().all(|&t| FLOOR.holds(area2(&uv, t))));
         // The deepest point of a regular hexagon's kernel is its centre.
         assert!(dist(uv[0], [0.0, 0.0]) < 1e-6, "{:?}", uv[0]);
@@ -249,7 +248,10 @@ mod tests {
         uv[1] = [-20.0, 0.5];
         uv[0] = [0.0, 0.0];
         let floor = vec![FLOOR; tris.len()];
-        assert!(!unfold_start(&mut uv, &fixed, &tris, &floor, &mut KernelScratch::default()));
+        assert_eq!(
+            unfold_start(&mut uv, &fixed, &tris, &floor, &mut KernelScratch::default()),
+            Some(false)
+        );
     }
 
     #[test]
@@ -258,7 +260,10 @@ mod tests {
         uv[0] = [14.0, 3.0];
         let before = uv.clone();
         let floor = vec![AreaBound { sign: 0.0, min: 0.0 }; tris.len()];
-        assert!(unfold_start(&mut uv, &fixed, &tris, &floor, &mut KernelScratch::default()));
+        assert_eq!(
+            unfold_start(&mut uv, &fixed, &tris, &floor, &mut KernelScratch::default()),
+            None
+        );
         assert_eq!(uv, before);
     }
 }

@@ -10,9 +10,10 @@
 //! the seam costs almost nothing in area-weighted distortion. The verdict is then taken again in
 //! full, so a separated layout passes only if every check of the paper passes.
 
+use super::attempt::DEGENERATE_AREA2;
 use super::grid::tri_bbox;
 use super::kernel::AreaBound;
-use super::ops::OpGeometry;
+use super::ops::{OpGeometry, dist};
 use super::state::{Engine, NONE, orig_tri};
 use crate::geometry::{Tri2, isometric_energy, signed_area2, triangles_overlap_beyond_noise};
 
@@ -37,22 +38,23 @@ const MAX_ENERGY: f64 = 0.5;
 /// (so rounding cannot bring it back to the fold check's threshold), a degenerate one must not
 /// turn the wrong way, and one folded before the attempt must not become degenerate (it keeps
 /// the side it is on now, or its old side when it is degenerate now).
-pub(crate) fn area_bound(before: f64, now: f64, degenerate: f64) -> AreaBound {
-    if before >= degenerate {
-        AreaBound { sign: 1.0, min: 2.0 * degenerate }
-    } else if before > -degenerate {
+pub(crate) fn area_bound(before: f64, now: f64) -> AreaBound {
+    let min = 2.0 * DEGENERATE_AREA2;
+    if before >= DEGENERATE_AREA2 {
+        AreaBound { sign: 1.0, min }
+    } else if before > -DEGENERATE_AREA2 {
         AreaBound { sign: 1.0, min: 0.0 }
-    } else if now >= 2.0 * degenerate {
-        AreaBound { sign: 1.0, min: 2.0 * degenerate }
+    } else if now >= min {
+        AreaBound { sign: 1.0, min }
     } else {
-        AreaBound { sign: -1.0, min: 2.0 * degenerate }
+        AreaBound { sign: -1.0, min }
     }
 }
 
 impl Engine<'_> {
     /// Tries to separate the pairs in `self.offenders` by moving free vertices; `true` when a
     /// sweep left none of them overlapping (the caller judges the layout again in full).
-    pub(super) fn separate_offenders(&mut self, g: &OpGeometry, degenerate: f64) -> bool {
+    pub(super) fn separate_offenders(&mut self, g: &OpGeometry) -> bool {
         if self.offenders.len() > 2 * MAX_PAIRS {
             return false;
         }
@@ -72,7 +74,7 @@ impl Engine<'_> {
             let mut moved = false;
             for i in 0..self.sep_verts.len() {
                 let v = self.sep_verts[i];
-                moved |= self.separate_vertex(v, g, degenerate);
+                moved |= self.separate_vertex(v, g);
             }
             // Keep only the pairs that still overlap.
             let mut w = 0;
@@ -97,7 +99,7 @@ impl Engine<'_> {
 
     /// Moves vertex `v` by the shortest step (lowest distortion among the directions of that
     /// length) that lowers the number of overlapping pairs around it; `true` if it moved.
-    fn separate_vertex(&mut self, v: u32, g: &OpGeometry, degenerate: f64) -> bool {
+    fn separate_vertex(&mut self, v: u32, g: &OpGeometry) -> bool {
         // The faces around v, their mean edge length, and every face of the two charts that any
         // of them may reach within the longest step.
         self.sep_faces.clear();
@@ -165,7 +167,7 @@ impl Engine<'_> {
                 let a = std::f64::consts::TAU * d as f64 / DIRECTIONS as f64;
                 let p = [p0[0] + step * scale * a.cos(), p0[1] + step * scale * a.sin()];
                 self.t.uv_pos[v as usize] = p;
-                if !self.faces_keep_orientation(degenerate) || !self.fewer_overlaps(count0) {
+                if !self.faces_keep_orientation() || !self.fewer_overlaps(count0) {
                     continue;
                 }
                 let energy = self.energy_around();
@@ -190,13 +192,13 @@ impl Engine<'_> {
     /// Whether every face in `sep_faces` keeps a doubled area its fold check accepts: the chart's
     /// orientation for a face that had it, never the wrong way for a degenerate one, and never
     /// degenerate for one folded before the attempt (on either side).
-    fn faces_keep_orientation(&self, degenerate: f64) -> bool {
+    fn faces_keep_orientation(&self) -> bool {
         self.sep_faces.iter().all(|&f| {
             let (before, now) = (self.face_area2[f as usize], signed_area2(self.tri(f as usize)));
-            if before <= -degenerate {
-                now.abs() >= 2.0 * degenerate
+            if before <= -DEGENERATE_AREA2 {
+                now.abs() >= 2.0 * DEGENERATE_AREA2
             } else {
-                area_bound(before, now, degenerate).holds(now)
+                area_bound(before, now).holds(now)
             }
         })
     }
@@ -244,9 +246,4 @@ impl Engine<'_> {
         let same_chart = self.t.face_chart[s] == self.t.face_chart[f];
         !(same_chart && triangles_overlap_beyond_noise(self.tri_before(f), self.tri_before(s)))
     }
-}
-
-#[inline]
-fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
-    (a[0] - b[0]).hypot(a[1] - b[1])
 }

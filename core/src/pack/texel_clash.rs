@@ -405,6 +405,18 @@ impl<'a> Chart<'a> {
         if w > 0.0 { e / w } else { 0.0 }
     }
 
+    /// Marks the faces folded against the chart (whose orientation is the sign of its net area),
+    /// before [`Start::of`] takes the patch energies without them.
+    fn mark_folded(&mut self) {
+        let n = self.tri.len() as u32;
+        let net: f64 = (0..n).map(|f| signed_area2(self.tri_of(f))).sum();
+        let chart_sign = if net < 0.0 { -1.0 } else { 1.0 };
+        for f in 0..n {
+            let a = signed_area2(self.tri_of(f));
+            self.folded[f as usize] = a.signum() != chart_sign && a.abs() >= 2.0 * DEGENERATE;
+        }
+    }
+
     fn count_all(&self) -> Vec<(u32, u32)> {
         let mut pairs = Vec::new();
         for f in 0..self.tri.len() as u32 {
@@ -455,11 +467,8 @@ pub(crate) fn separate(
     }
     // Moves begin: faces may now reach anything within the widest move of their boxes.
     chart.find_neighbours(MAX_SHIFT);
-    let mut start = Start::of(&chart);
-    for f in 0..chart.tri.len() {
-        chart.folded[f] = start.sign[f] != start.chart_sign && start.area2[f] >= 2.0 * DEGENERATE;
-    }
-    start.patch_energy = (0..chart.pos.len() as u32).map(|v| chart.patch_energy(v)).collect();
+    chart.mark_folded();
+    let start = Start::of(&chart);
     let steps: Vec<[f64; 2]> = STEPS
         .iter()
         .flat_map(|&r| {
