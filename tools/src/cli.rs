@@ -80,6 +80,13 @@ pub struct BuildArgs {
     /// Skip the frequency-based chart splitting.
     #[arg(long)]
     pub no_frequency_split: bool,
+    /// Skip the exposure compensation (one colour gain per photo, fitted where photos overlap).
+    #[arg(long)]
+    pub no_exposure: bool,
+    /// Weight of photo resolution against head-on view in the choice of each face's photo
+    /// (0 = the paper's distortion alone).
+    #[arg(long, value_name = "W", default_value_t = 1.0)]
+    pub resolution_weight: f64,
     /// Write the full run report as JSON to this file.
     #[arg(long, value_name = "FILE.json")]
     pub report: Option<PathBuf>,

@@ -313,7 +313,7 @@ fn a_gaussian_level_sampled_at_level_uvs_reproduces_a_linear_ramp() {
 
 #[test]
 fn coarse_rings_copy_the_source_around_a_chart_and_nothing_else() {
-    use super::coarse_gutter::{CoarseChart, fill_rings};
+    use super::photo_ring::{RingChart, fill_rings};
     use crate::geometry::GridTransform;
     use crate::texture::gutter::Coverage;
     use crate::texture::raster::{PixelRect, rasterize_triangle};
@@ -348,7 +348,7 @@ fn coarse_rings_copy_the_source_around_a_chart_and_nothing_else() {
             cov[0].set(i, j);
         });
     }
-    let chart = CoarseChart { out_sheet: 0, src_sheet: 0, transform: t, faces: vec![0] };
+    let chart = RingChart { out_sheet: 0, src_sheet: 0, transform: t, faces: vec![0] };
     let mut ring = Vec::new();
     let sources = [src];
     fill_rings(&[chart], &|f| tris[f], 2, &sources, &mut out, &cov, &mut ring);

@@ -6,10 +6,12 @@
 
 pub mod bundler;
 pub mod cameras;
-pub mod coarse_gutter;
 pub mod colmap;
+pub mod exposure;
 pub mod frequency;
+pub mod occlusion;
 pub mod partition;
+pub mod photo_ring;
 pub mod pyramid;
 pub mod smoothing;
 pub mod split;

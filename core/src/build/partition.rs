@@ -171,11 +171,16 @@ pub struct Flooded {
     pub cost: f64,
 }
 
-/// The paper's `D(f, c)` as a [`Metric`]: labels are cameras, allowed where visible.
+/// The paper's `D(f, c)` as a [`Metric`]: labels are cameras, allowed where visible; with a
+/// resolution term when `resolution_weight > 0` (see [`partition`]).
 struct Distortion<'a> {
     geom: &'a FaceGeom,
     vis: &'a Visibility,
     centres: Vec<[f64; 3]>,
+    /// Linear resolution of each (face, visible camera) pair of `vis` relative to the face's
+    /// sharpest camera, in `(0, 1]`; empty without the resolution term.
+    relative_resolution: Vec<f32>,
+    resolution_weight: f64,
 }
 
 impl Metric for Distortion<'_> {
@@ -190,20 +195,96 @@ impl Metric for Distortion<'_> {
         let g = self.geom;
         let v = normalize(sub(g.centroid[f], self.centres[c as usize]));
         let s = [g.normal[f][0] + v[0], g.normal[f][1] + v[1], g.normal[f][2] + v[2]];
-        dot(s, s) * g.area[f]
+        let mut d = dot(s, s);
+        if !self.relative_resolution.is_empty() {
+            let start = self.vis.start[f] as usize;
+            if let Ok(i) = self.vis.of(f).binary_search(&c) {
+                d +=
+                    self.resolution_weight * (1.0 - f64::from(self.relative_resolution[start + i]));
+            }
+        }
+        d * g.area[f]
     }
+}
+
+/// Pixel area of every (face, visible camera) pair of `vis` (distortion included), divided by
+/// the largest over the face's cameras, square-rooted: the linear texel density a face would
+/// get from each photo relative to its sharpest one.
+fn relative_resolution(
+    positions: &[[f64; 3]],
+    tris: &[[u32; 3]],
+    vis: &Visibility,
+    cams: &[PhotoCamera],
+) -> Vec<f32> {
+    use rayon::prelude::*;
+    let mut out = vec![0f32; vis.cams.len()];
+    let nf = vis.start.len().saturating_sub(1);
+    // Faces in parallel; each writes its own slots of the CSR.
+    let mut chunks: Vec<&mut [f32]> = Vec::with_capacity(nf);
+    let mut rest = out.as_mut_slice();
+    for f in 0..nf {
+        let (a, b) = rest.split_at_mut(vis.of(f).len());
+        chunks.push(a);
+        rest = b;
+    }
+    chunks.into_par_iter().enumerate().for_each(|(f, slots)| {
+        let p = tris[f].map(|v| positions[v as usize]);
+        let mut best = 0.0f64;
+        for (slot, &c) in slots.iter_mut().zip(vis.of(f)) {
+            let q = p.map(|x| cams[c as usize].project(x).map(|(q, _)| q));
+            let a = match q {
+                [Some(a), Some(b), Some(c)] => {
+                    0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])).abs()
+                }
+                _ => 0.0,
+            };
+            *slot = a as f32;
+            best = best.max(a);
+        }
+        for slot in slots.iter_mut() {
+            *slot = if best > 0.0 { (f64::from(*slot) / best).sqrt() as f32 } else { 1.0 };
+        }
+    });
+    out
+}
+
+/// The mesh and weight of the resolution term of [`partition`].
+#[derive(Clone, Copy, Debug)]
+pub struct ResolutionTerm<'a> {
+    pub positions: &'a [[f64; 3]],
+    pub tris: &'a [[u32; 3]],
+    pub weight: f64,
 }
 
 /// Algorithm 1 of the paper with the distortion metric `D`. `max_rounds` bounds the
 /// adding/growing alternation (each round may add many seeds; see [`flood_partition`]).
+///
+/// With `resolution_weight = w > 0` the cost of face `f` in camera `c` is
+/// `(||n_f + v_c||² + w·(1 − r_c(f)))·a_f`, where `r_c(f)` is the linear texel density `c` gives
+/// the face relative to its sharpest camera: the paper's `D` picks the most head-on photo
+/// whatever its distance, so a distant photo straight on beats a close one slightly aside, and
+/// the texture loses the close photo's resolution. `w = 0` is the paper's `D` exactly.
 pub fn partition(
     geom: &FaceGeom,
     adj: &[[u32; 3]],
     vis: &Visibility,
     cams: &[PhotoCamera],
     max_rounds: u32,
+    resolution: Option<ResolutionTerm<'_>>,
 ) -> Partition {
-    let metric = Distortion { geom, vis, centres: cams.iter().map(PhotoCamera::centre).collect() };
+    let (relative_resolution, resolution_weight) = match resolution {
+        Some(r) if r.weight > 0.0 => {
+            (relative_resolution(r.positions, r.tris, vis, cams), r.weight)
+        }
+        _ => (Vec::new(), 0.0),
+    };
+    let metric = Distortion {
+        geom,
+        vis,
+        centres: cams.iter().map(PhotoCamera::centre).collect(),
+        relative_resolution,
+        resolution_weight,
+    };
     let r = flood_partition(adj, &metric, max_rounds);
     Partition {
         face_chart: r.face_chart,

@@ -184,7 +184,7 @@ fn partition_covers_every_seen_face_once_with_connected_charts_that_see_them() {
     let vis = compute(&model.positions, &tris, &rig.cameras, &VisibilityOptions::default());
     let geom = FaceGeom::new(&model.positions, &tris);
     let adj = face_adjacency(&tris);
-    let p = partition(&geom, &adj, &vis, &rig.cameras, 12);
+    let p = partition(&geom, &adj, &vis, &rig.cameras, 12, None);
     assert!(p.chart_camera.len() >= 2 && p.chart_camera.len() <= p.charts_before_merge);
     for f in 0..tris.len() {
         let c = p.face_chart[f];

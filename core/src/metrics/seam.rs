@@ -75,6 +75,19 @@ pub fn inside_point(uv: [[f64; 2]; 3], k: usize, s: f64, inset: f64) -> [f64; 2]
     [e[0] + t * d[0], e[1] + t * d[1]]
 }
 
+/// The colour jump across `seams`, and what of it the surface's own colour explains.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SeamJump {
+    /// Mean over samples of the mean absolute RGB difference (0–255) between the two sides.
+    pub jump: f64,
+    /// The same mean taken of the true colour at the two sample points (`None` without a true
+    /// colour): what a perfect texture would show, since the two samples are a little apart.
+    pub true_jump: Option<f64>,
+    /// Mean absolute difference between the texture's step and the true colour's step at the
+    /// same two points: the seam's own discontinuity, which neither detail nor blur hides.
+    pub excess: Option<f64>,
+}
+
 /// The colour jump across `seams`: the mean over samples of the mean absolute RGB difference
 /// (0–255 scale) between the two sides of each seam edge, sampled bilinearly at matching points
 /// of the edge (a quarter, half and three quarters along it) in both faces' UV triangles. `tris`
@@ -94,7 +107,24 @@ pub fn seam_jump(
     out_uv: &dyn Fn(usize, usize) -> [f64; 2],
     sheets: &[TileStore],
 ) -> f64 {
+    seam_jump_against(seams, tris, face_sheet, inset, out_uv, sheets, None).jump
+}
+
+/// [`seam_jump`], and with `truth(f, b)` (the true colour, in the sheets' encoding and `[0, 1]`,
+/// at barycentric point `b` of face `f`) also the true colour's own step at the same points and
+/// the texture's departure from it.
+pub fn seam_jump_against(
+    seams: &[Seam],
+    tris: &[[u32; 3]],
+    face_sheet: &[u32],
+    inset: &dyn Fn(usize) -> f64,
+    out_uv: &dyn Fn(usize, usize) -> [f64; 2],
+    sheets: &[TileStore],
+    truth: Option<&dyn Fn(usize, [f64; 3]) -> [f64; 3]>,
+) -> SeamJump {
     let mut sum = 0.0;
+    let mut sum_true = 0.0;
+    let mut sum_excess = 0.0;
     let mut n = 0.0;
     for sm in seams {
         let (f, g, k) = (sm.f as usize, sm.g as usize, sm.k as usize);
@@ -115,8 +145,32 @@ pub fn seam_jump(
             let cf = smoothing::sample(&sheets[face_sheet[f] as usize], pf);
             let cg = smoothing::sample(&sheets[face_sheet[g] as usize], pg);
             sum += (0..3).map(|c| (cf[c] - cg[c]).abs()).sum::<f64>() / 3.0 * 255.0;
+            if let Some(truth) = truth {
+                let tf = truth(f, barycentric(uvf, pf));
+                let tg = truth(g, barycentric(uvg, pg));
+                sum_true += (0..3).map(|c| (tf[c] - tg[c]).abs()).sum::<f64>() / 3.0 * 255.0;
+                sum_excess +=
+                    (0..3).map(|c| ((cf[c] - cg[c]) - (tf[c] - tg[c])).abs()).sum::<f64>() / 3.0
+                        * 255.0;
+            }
             n += 1.0;
         }
     }
-    if n > 0.0 { sum / n } else { 0.0 }
+    let mean = |v: f64| if n > 0.0 { v / n } else { 0.0 };
+    SeamJump {
+        jump: mean(sum),
+        true_jump: truth.map(|_| mean(sum_true)),
+        excess: truth.map(|_| mean(sum_excess)),
+    }
+}
+
+/// Barycentric coordinates of `p` in triangle `t` (the centroid for a degenerate triangle).
+pub fn barycentric(t: [[f64; 2]; 3], p: [f64; 2]) -> [f64; 3] {
+    let d = (t[1][0] - t[0][0]) * (t[2][1] - t[0][1]) - (t[2][0] - t[0][0]) * (t[1][1] - t[0][1]);
+    if d.abs() < 1e-300 {
+        return [1.0 / 3.0; 3];
+    }
+    let b1 = ((p[0] - t[0][0]) * (t[2][1] - t[0][1]) - (t[2][0] - t[0][0]) * (p[1] - t[0][1])) / d;
+    let b2 = ((t[1][0] - t[0][0]) * (p[1] - t[0][1]) - (p[0] - t[0][0]) * (t[1][1] - t[0][1])) / d;
+    [1.0 - b1 - b2, b1, b2]
 }

@@ -10,9 +10,13 @@ use std::time::Instant;
 use super::PipelineError;
 use super::convert::output_sheet_path;
 use crate::build::cameras::PhotoCamera;
-use crate::build::coarse_gutter::{CoarseChart, fill_rings};
+use crate::build::exposure::{self, Exposure, ExposureOptions};
 use crate::build::frequency::{self, FrequencyOptions};
-use crate::build::partition::{FaceGeom, NONE, Partition, face_adjacency, partition};
+use crate::build::occlusion::{OcclusionReport, detach_overlaps};
+use crate::build::partition::{
+    FaceGeom, NONE, Partition, ResolutionTerm, face_adjacency, partition,
+};
+use crate::build::photo_ring::{RingChart, fill_rings};
 use crate::build::pyramid::{MAX_LEVELS, level_size, reduce_store, to_level};
 use crate::build::smoothing::{self, ChartGrid, Rgb};
 use crate::build::split::{Split, SplitInput, split_charts};
@@ -31,7 +35,7 @@ use crate::texture::raster::{PixelRect, rasterize_triangle};
 use crate::texture::resample::{
     FaceMapping, ResampleOptions, ResampleReport, push_pull, resample_sheets,
 };
-use crate::texture::{ImageFormat, TileStore, decode};
+use crate::texture::{ImageFormat, SampleType, TileStore, decode};
 
 /// Options of a build run.
 #[derive(Clone, Debug)]
@@ -45,9 +49,16 @@ pub struct BuildConfig {
     /// textured at full resolution, exactly as without the analysis.
     pub frequency_split: bool,
     pub frequency: FrequencyOptions,
+    /// Exposure compensation: one colour gain per photo (`build::exposure`), applied to every
+    /// texel taken from that photo before the colour smoothing.
+    pub exposure: bool,
+    pub exposure_options: ExposureOptions,
     /// Free texels around each chart (the paper's 1-texel border, doubled for bilinear mips).
     pub padding: u32,
     pub visibility: VisibilityOptions,
+    /// Weight of the resolution term in the partition's camera choice (`build::partition`);
+    /// 0 = the paper's `D` alone.
+    pub resolution_weight: f64,
     /// Bound on the adding/growing rounds of the partition.
     pub max_rounds: u32,
     pub texture_format: ImageFormat,
@@ -64,8 +75,11 @@ impl Default for BuildConfig {
             smoothing: true,
             frequency_split: true,
             frequency: FrequencyOptions::default(),
+            exposure: true,
+            exposure_options: ExposureOptions::default(),
             padding: 2,
             visibility: VisibilityOptions::default(),
+            resolution_weight: 1.0,
             max_rounds: 12,
             texture_format: ImageFormat::Png,
             work_dir: None,
@@ -81,6 +95,8 @@ pub struct BuildTimes {
     pub partition_ms: f64,
     /// Decoding the photos that texture some chart into tile files.
     pub decode_ms: f64,
+    /// Fitting the photos' exposure gains.
+    pub exposure_ms: f64,
     /// Frequency analysis, level smoothing and splitting.
     pub frequency_ms: f64,
     pub parametrize_ms: f64,
@@ -108,6 +124,9 @@ pub struct BuildReport {
     pub visibility_found_per_pass: Vec<u64>,
     pub partition_rounds: u32,
     pub charts_before_merge: usize,
+    /// Faces whose projection overlapped another face of their chart (so partly hidden in its
+    /// photo), moved to charts of their own (`build::occlusion`).
+    pub occlusion: OcclusionReport,
     pub charts: usize,
     pub distortion: f64,
     /// Sander's L2 stretch efficiency `1/L2²` (areas normalized): 1 = no stretch.
@@ -132,6 +151,8 @@ pub struct BuildReport {
     /// Whether the frequency-based splitting ran (see `frequency`).
     pub frequency_split: bool,
     pub frequency: Option<FrequencyReport>,
+    /// The photos' exposure gains and the fit's figures (`None` with `exposure` off).
+    pub exposure: Option<Exposure>,
     pub pack: Option<PackReport>,
     pub resample: Option<ResampleReport>,
     pub times: BuildTimes,
@@ -169,7 +190,7 @@ pub struct FrequencyReport {
     pub split_ms: f64,
 }
 
-/// Texels around a coarse sub-chart copied from its pyramid level (see `coarse_gutter`).
+/// Texels around a sub-chart copied from its photo's level (see `photo_ring`).
 const RING: u32 = 1;
 
 fn ms(t: Instant) -> f64 {
@@ -191,6 +212,12 @@ pub fn build(
 ) -> Result<BuildReport, PipelineError> {
     let t_all = Instant::now();
     let packer = registry.packer(&cfg.packer, &cfg.packer_params)?;
+    if !(cfg.resolution_weight.is_finite() && cfg.resolution_weight >= 0.0) {
+        return Err(PipelineError::Usage(format!(
+            "the resolution weight must be a number ≥ 0, not {}",
+            cfg.resolution_weight
+        )));
+    }
     let mut times = BuildTimes::default();
     let t = Instant::now();
     let model = crate::io::read_model(mesh)?;
@@ -238,7 +265,15 @@ pub fn build(
     let t = Instant::now();
     let geom = FaceGeom::new(positions, &tris);
     let adj = face_adjacency(&tris);
-    let part = partition(&geom, &adj, &vis, &rig.cameras, cfg.max_rounds);
+    let mut part = partition(
+        &geom,
+        &adj,
+        &vis,
+        &rig.cameras,
+        cfg.max_rounds,
+        Some(ResolutionTerm { positions, tris: &tris, weight: cfg.resolution_weight }),
+    );
+    let occlusion = detach_overlaps(&mut part, positions, &tris, &geom, &vis, &rig.cameras);
     times.partition_ms = ms(t);
 
     // Decode the photos that texture some chart into tile files (memory-mapped, so hundreds
@@ -278,6 +313,25 @@ pub fn build(
         });
     }
     times.decode_ms = ms(t);
+
+    // Exposure gains, fitted on the decoded photos (the others take no part and keep gain 1).
+    let t = Instant::now();
+    let expo = if cfg.exposure {
+        let decoded: Vec<Option<&TileStore>> =
+            photos.iter().zip(&used).map(|(p, &u)| u.then_some(p)).collect();
+        Some(exposure::estimate(
+            positions,
+            &tris,
+            &vis,
+            &rig.cameras,
+            &decoded,
+            &cfg.exposure_options,
+        ))
+    } else {
+        None
+    };
+    let gains = expo.clone().unwrap_or_else(|| Exposure::identity(n_cams));
+    times.exposure_ms = ms(t);
 
     // Level-0 projection (with lens distortion) of every seen face's corners into its chart's
     // photo, in that photo's texel space.
@@ -423,15 +477,7 @@ pub fn build(
     // Texture: the pyramid levels sub-charts use (tile files, built from the decoded photos),
     // then resampling.
     let t = Instant::now();
-    let fill_color = fill_colour(
-        &unseen,
-        &adj,
-        &part.face_chart,
-        &part.chart_camera,
-        &rig.cameras,
-        &photos,
-        &geom,
-    );
+    let fill_color = fill_colour(&unseen, &adj, &part, &rig.cameras, &photos, &geom, &gains);
     release(&photos);
     let mut fill = TileStore::create(&work_dir, FILL, FILL, format)?;
     for y in 0..FILL {
@@ -478,15 +524,24 @@ pub fn build(
         let (w, h) = (res.sheets[sh].width(), res.sheets[sh].height());
         rasterize_triangle(m.dst, h, PixelRect::new(0, 0, w, h), |i, j, _| covs[sh].set(i, j));
     }
-    // Coarse sub-charts get their gutter ring from their pyramid level (see `coarse_gutter`);
-    // without splitting there are none.
+    // Every texel of a face, taken from its photo, to the common exposure; before the rings,
+    // which carry the difference between a texel and its source.
+    if !gains.is_identity() {
+        let face_camera = |f: usize| match sub.face_sub[f] {
+            NONE => None,
+            s => Some(sub_camera[s as usize]),
+        };
+        apply_gains(&gains, &mappings, &face_camera, &mut res.sheets);
+    }
+    // Every sub-chart gets its gutter ring from its photo at its pyramid level (see
+    // `photo_ring`), so that bilinear filtering at its border reads the photo.
     let radius = cfg.padding.clamp(1, crate::texture::gutter::MAX_RADIUS);
     // One texel is what bilinear filtering reads; further out the photo may show background or
     // an occluder, which dilated copies of the ring keep out of the mip levels.
-    let coarse = coarse_charts(&sub.face_sub, &sub.sub_level, &sub_sheet, &packed);
+    let ringed = ring_charts(&sub.face_sub, &sub.sub_level, &sub_sheet, &packed);
     let out_tri = |f: usize| mappings[f].dst;
     let mut ring = Vec::new();
-    fill_rings(&coarse, &out_tri, RING, &photos, &mut res.sheets, &covs, &mut ring);
+    fill_rings(&ringed, &out_tri, RING, &photos, &mut res.sheets, &covs, &mut ring);
     release(&photos);
     release(&res.sheets);
     times.texture_ms = ms(t);
@@ -530,6 +585,7 @@ pub fn build(
             &sub.sub_level,
             &rig.cameras,
             &photos,
+            &gains,
             &packed.face_sheet,
             &out_uv,
             &mut res.sheets,
@@ -537,9 +593,9 @@ pub fn build(
     }
     let seam_jump_after =
         seam_jump(&photo_seams, &tris, &packed.face_sheet, &inset, &out_uv, &res.sheets);
-    if sweeps > 0 && !coarse.is_empty() {
-        // Carry the smoothing corrections into the coarse rings.
-        fill_rings(&coarse, &out_tri, RING, &photos, &mut res.sheets, &covs, &mut ring);
+    if sweeps > 0 && !ringed.is_empty() {
+        // Carry the smoothing corrections into the rings.
+        fill_rings(&ringed, &out_tri, RING, &photos, &mut res.sheets, &covs, &mut ring);
     }
     release(&res.sheets);
     times.smoothing_ms = ms(t);
@@ -615,6 +671,7 @@ pub fn build(
         visibility_found_per_pass: vis.found_per_pass.clone(),
         partition_rounds: part.rounds,
         charts_before_merge: part.charts_before_merge,
+        occlusion,
         charts: n_charts,
         distortion: part.distortion,
         stretch_efficiency: eff.0,
@@ -632,29 +689,30 @@ pub fn build(
         smoothing_sweeps: sweeps,
         frequency_split: freq.is_some(),
         frequency: freq,
+        exposure: expo,
         pack: Some(packed.report.clone()),
         resample: Some(res.report.clone()),
         times,
     })
 }
 
-/// The packed sub-charts at a level coarser than 0 that were placed as exact grid copies.
-fn coarse_charts(
+/// The packed sub-charts that were placed as exact grid copies of their source.
+fn ring_charts(
     face_sub: &[u32],
     sub_level: &[u8],
     sub_sheet: &[u32],
     packed: &crate::pack::PackedLayout,
-) -> Vec<CoarseChart> {
+) -> Vec<RingChart> {
     let mut index = vec![NONE; sub_level.len()];
-    let mut out: Vec<CoarseChart> = Vec::new();
+    let mut out: Vec<RingChart> = Vec::new();
     for (f, &s) in face_sub.iter().enumerate() {
-        if s == NONE || sub_level[s as usize] == 0 {
+        if s == NONE {
             continue;
         }
         let Some(transform) = packed.chart_transform[s as usize] else { continue };
         if index[s as usize] == NONE {
             index[s as usize] = out.len() as u32;
-            out.push(CoarseChart {
+            out.push(RingChart {
                 out_sheet: packed.face_sheet[f],
                 src_sheet: sub_sheet[s as usize],
                 transform,
@@ -798,17 +856,55 @@ fn gaussian_levels(
     Ok(out)
 }
 
+/// Brings every face's texels on the output `sheets` to the common exposure: the gain of the
+/// face's photo (`face_camera`; `None` = the fill, already corrected), each texel once.
+fn apply_gains(
+    gains: &Exposure,
+    mappings: &[FaceMapping],
+    face_camera: &dyn Fn(usize) -> Option<u32>,
+    sheets: &mut [TileStore],
+) {
+    let mut done: Vec<Coverage> = sheets.iter().map(Coverage::for_store).collect();
+    let mut luts: Vec<Option<[[u8; 256]; 3]>> = vec![None; gains.gains.len()];
+    for (f, m) in mappings.iter().enumerate() {
+        let Some(cam) = face_camera(f) else { continue };
+        let sh = m.dst_sheet as usize;
+        let store = &mut sheets[sh];
+        let (w, h) = (store.width(), store.height());
+        let format = store.format();
+        let rgb8 = format.sample == SampleType::U8 && format.channels >= 3;
+        let lut = luts[cam as usize].get_or_insert_with(|| gains.lut8(cam as usize));
+        let cov = &mut done[sh];
+        rasterize_triangle(m.dst, h, PixelRect::new(0, 0, w, h), |i, j, _| {
+            if cov.get(i, j) {
+                return;
+            }
+            cov.set(i, j);
+            if rgb8 {
+                let px = store.pixel_mut(i, j);
+                for c in 0..3 {
+                    px[c] = lut[c][usize::from(px[c])];
+                }
+            } else {
+                let v = smoothing::read_rgb(store, i, j);
+                smoothing::write_rgb(store, i, j, gains.correct(cam as usize, v, format.sample));
+            }
+        });
+    }
+}
+
 /// The fill colour of unseen faces: the mean photo colour at the centroids of their seen
 /// neighbours (mid-grey when none has one).
 fn fill_colour(
     unseen: &[usize],
     adj: &[[u32; 3]],
-    face_chart: &[u32],
-    chart_camera: &[u32],
+    part: &Partition,
     cams: &[PhotoCamera],
     photos: &[TileStore],
     geom: &FaceGeom,
+    gains: &Exposure,
 ) -> Rgb {
+    let (face_chart, chart_camera) = (&part.face_chart, &part.chart_camera);
     let mut s = [0.0; 3];
     let mut n = 0.0;
     for &f in unseen {
@@ -819,6 +915,7 @@ fn fill_colour(
             let cam = chart_camera[face_chart[g as usize] as usize] as usize;
             if let Some(p) = cams[cam].project_texel(geom.centroid[g as usize]) {
                 let c = smoothing::sample(&photos[cam], p);
+                let c = gains.correct(cam, c, photos[cam].format().sample);
                 for k in 0..3 {
                     s[k] += c[k];
                 }
@@ -860,6 +957,7 @@ fn smooth(
     chart_level: &[u8],
     cams: &[PhotoCamera],
     photos: &[TileStore],
+    gains: &Exposure,
     face_sheet: &[u32],
     out_uv: &dyn Fn(usize, usize) -> [f64; 2],
     sheets: &mut [TileStore],
@@ -936,13 +1034,16 @@ fn smooth(
             let eb = uv[(k + 1) % 3];
             let len = ((eb[0] - ea[0]).powi(2) + (eb[1] - ea[1]).powi(2)).sqrt();
             let steps = (len * 2.0).ceil().max(1.0) as u32;
-            for s in 0..=steps {
-                let t = (f64::from(s) + 0.5) / f64::from(steps + 1);
-                let q = inside_point(uv, k, t, 0.75);
-                let x = [0, 1, 2].map(|d| pa[d] + t * (pb[d] - pa[d]));
-                let corr = if same_photo {
-                    [0.0; 3]
-                } else {
+            // The lighting difference along this edge: the mean over its samples of half the
+            // difference between the two photos at the same point. Photos of different pixel
+            // grids differ point by point on detailed surface (interpolation), and a per-sample
+            // correction would print that noise along the seam; lighting varies slowly.
+            let mut sum = [0.0; 3];
+            let mut n_ok = 0.0;
+            if !same_photo {
+                for s in 0..=steps {
+                    let t = (f64::from(s) + 0.5) / f64::from(steps + 1);
+                    let x = [0, 1, 2].map(|d| pa[d] + t * (pb[d] - pa[d]));
                     // Both photos are read at the same point of the edge, which each of them
                     // sees (it bounds a face of each chart). Reading this chart's side inside
                     // the face instead (where its correction is fixed) would compare points
@@ -953,10 +1054,28 @@ fn smooth(
                     let Some(pm) = cams[own].project_texel(x) else { continue };
                     let po = to_level(po, usize::from(chart_level[gc]), cams[other].intr.height);
                     let pm = to_level(pm, usize::from(chart_level[c]), cams[own].intr.height);
-                    let mine = smoothing::sample(&photos[chart_sheet[c] as usize], pm);
-                    let theirs = smoothing::sample(&photos[chart_sheet[gc] as usize], po);
-                    [0, 1, 2].map(|d| 0.5 * (theirs[d] - mine[d]))
-                };
+                    let (ps, po_store) =
+                        (&photos[chart_sheet[c] as usize], &photos[chart_sheet[gc] as usize]);
+                    let mine = gains.correct(own, smoothing::sample(ps, pm), ps.format().sample);
+                    let theirs = gains.correct(
+                        other,
+                        smoothing::sample(po_store, po),
+                        po_store.format().sample,
+                    );
+                    for d in 0..3 {
+                        sum[d] += 0.5 * (theirs[d] - mine[d]);
+                    }
+                    n_ok += 1.0;
+                }
+                if n_ok == 0.0 {
+                    continue;
+                }
+            }
+            // Sub-charts of one photo get 0 (see above).
+            let corr = if n_ok > 0.0 { sum.map(|v| v / n_ok) } else { [0.0; 3] };
+            for s in 0..=steps {
+                let t = (f64::from(s) + 0.5) / f64::from(steps + 1);
+                let q = inside_point(uv, k, t, 0.75);
                 let (px, py) = (q[0].floor(), (f64::from(h) - q[1]).floor());
                 if px >= 0.0 && py >= 0.0 && px < f64::from(w) && py < f64::from(h) {
                     grid.add(px as u32, py as u32, corr);

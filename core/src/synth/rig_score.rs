@@ -10,7 +10,7 @@ use std::path::Path;
 
 use super::rig::{RigParams, read_params};
 use crate::build::cameras::{PhotoCamera, cross, dot, sub};
-use crate::metrics::seam::{chart_border_seams, seam_jump};
+use crate::metrics::seam::{chart_border_seams, seam_jump_against};
 use crate::metrics::{DEGEN_AREA_TEXELS, StatsOptions, atlas_stats, edge_chart_labels};
 use crate::model::Model;
 use crate::texture::TileStore;
@@ -47,6 +47,20 @@ pub struct RigScore {
     /// Mean absolute colour difference (0–255) across chart borders, at matching points of the
     /// two faces of each border edge.
     pub seam_jump: f64,
+    /// The true colour's own step between the same sample points: the jump a perfect texture
+    /// shows, because the two samples lie 1.5 photo pixels apart on detailed surface.
+    pub seam_jump_true: f64,
+    /// Mean absolute difference between the texture's step and the true colour's step at the
+    /// same points: the seam's own discontinuity (exposure, registration, resampling). Blur
+    /// lowers `seam_jump` below `seam_jump_true` but raises this.
+    pub seam_jump_excess: f64,
+    /// The same measure across mesh edges inside charts (both faces in one chart): the step of
+    /// the texture's own detail at that spacing. A seam that shows no more than this is not
+    /// seen; a blurred texture lowers both.
+    pub interior_jump: f64,
+    /// [`Self::seam_jump_true`] and [`Self::seam_jump_excess`] for the interior edges.
+    pub interior_jump_true: f64,
+    pub interior_jump_excess: f64,
     /// Mesh edges on chart borders that were sampled.
     pub seam_edges: u64,
     /// Median over faces of `sqrt(UV texel area / pixel area in the best photo)`: 1 = the
@@ -184,7 +198,21 @@ pub fn rig_score(
         .collect();
     // Seams are sampled 0.75 of a photo pixel inside each face, whatever the model's density.
     let inset = |f: usize| 0.75 * density[f].unwrap_or(1.0);
-    let jump = seam_jump(&seams, &tris, &face_sheet, &inset, &out_uv, sheets);
+    let truth = |f: usize, b: [f64; 3]| {
+        let p = model.faces[f].v.map(|v| model.positions[v.idx()]);
+        let x = [0, 1, 2].map(|k| b[0] * p[0][k] + b[1] * p[1][k] + b[2] * p[2][k]);
+        params.color(x).map(|c| f64::from(super::linear_to_srgb8(c)) / 255.0)
+    };
+    let jump = seam_jump_against(&seams, &tris, &face_sheet, &inset, &out_uv, sheets, Some(&truth));
+
+    // Interior edges: every manifold edge between two faces of one chart, found as the borders
+    // of one-face charts whose faces share a chart label.
+    let one_each: Vec<u32> = (0..nf as u32).collect();
+    let (all_edges, _) = chart_border_seams(model, &one_each, &|f| skip[f]);
+    let interior: Vec<_> =
+        all_edges.into_iter().filter(|e| labels[e.f as usize] == labels[e.g as usize]).collect();
+    let inner =
+        seam_jump_against(&interior, &tris, &face_sheet, &inset, &out_uv, sheets, Some(&truth));
 
     let mut ratios: Vec<f64> = density.iter().flatten().copied().collect();
     ratios.sort_unstable_by(f64::total_cmp);
@@ -202,7 +230,12 @@ pub fn rig_score(
         untextured_faces: untextured,
         psnr_db,
         psnr_texels,
-        seam_jump: jump,
+        seam_jump: jump.jump,
+        seam_jump_true: jump.true_jump.unwrap_or(0.0),
+        seam_jump_excess: jump.excess.unwrap_or(0.0),
+        interior_jump: inner.jump,
+        interior_jump_true: inner.true_jump.unwrap_or(0.0),
+        interior_jump_excess: inner.excess.unwrap_or(0.0),
         seam_edges: seams.len() as u64,
         texel_density: quantile(&ratios, 0.5),
         texel_density_p10: quantile(&ratios, 0.1),

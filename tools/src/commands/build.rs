@@ -16,6 +16,8 @@ pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
         max_sheet_size: args.max_sheet_size,
         smoothing: !args.no_smoothing,
         frequency_split: !args.no_frequency_split,
+        exposure: !args.no_exposure,
+        resolution_weight: args.resolution_weight,
         ..BuildConfig::default()
     };
     let stage = Stage::spinner("building the atlas", quiet);

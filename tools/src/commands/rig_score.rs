@@ -36,6 +36,11 @@ fn human(name: &str, s: &RigScore) -> String {
     line("PSNR vs true colour", format!("{:.2} dB over {} texels", s.psnr_db, s.psnr_texels));
     line("seam colour jump", format!("{:.2} over {} edges", s.seam_jump, s.seam_edges));
     line(
+        "  true colour's own / excess",
+        format!("{:.2} / {:.2}", s.seam_jump_true, s.seam_jump_excess),
+    );
+    line("same measure inside charts", format!("{:.2}", s.interior_jump));
+    line(
         "texel density (p10 / p90)",
         format!(
             "{} ({} / {}) over {} faces",

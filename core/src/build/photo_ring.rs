@@ -1,24 +1,25 @@
-//! Gutters of coarse sub-charts, copied from their pyramid level instead of dilated.
+//! Gutters of sub-charts copied from their photo (at the sub-chart's pyramid level) instead of
+//! dilated.
 //!
-//! A texel of a sub-chart at level `l` spans `2^l` photo pixels, so bilinear filtering near the
-//! sub-chart's border blends in texels a whole coarse texel outside its faces. Dilation would put
-//! copies of the border texels there, off by the colour change over `2^l` pixels: a visible seam
-//! around every coarse sub-chart. Every sub-chart is an exact grid placement of its level's
-//! texels, so the ring of texels around it that filtering reads can be copied from that level
-//! instead (the build copies one texel; dilation continues from there). A ring texel also
-//! carries the difference between the output and the source at the texel it continues (zero for
-//! copied texels, the colour correction after smoothing), so the ring stays consistent with the
-//! corrected interior.
-
+//! Bilinear filtering near a chart's border blends in texels just outside its faces: the
+//! renderer does, and so does any measure that samples the texture near a seam. Dilation puts
+//! copies of the border texels there, which differ from the photo by the colour change over one
+//! texel: on detailed surface a faint seam around every chart, and around a sub-chart at level
+//! `l`, whose texel spans `2^l` photo pixels, a visible one. Every sub-chart is an exact grid
+//! placement of its level's texels, so the ring of texels around it that filtering reads can be
+//! copied from that level instead (the build copies one texel; dilation continues from there).
+//! A ring texel also carries the difference between the output and the source at the texel it
+//! continues (the exposure gain and, after smoothing, the colour correction), so the ring stays
+//! consistent with the corrected interior.
 use crate::build::smoothing::{read_rgb, write_rgb};
 use crate::geometry::GridTransform;
 use crate::texture::TileStore;
 use crate::texture::gutter::Coverage;
 use crate::texture::raster::{PixelRect, rasterize_triangle};
 
-/// A coarse sub-chart as packed.
+/// A sub-chart as packed, with the source it is an exact copy of.
 #[derive(Clone, Debug)]
-pub struct CoarseChart {
+pub struct RingChart {
     /// Output sheet and the source sheet (the photo's pyramid level) it is copied from.
     pub out_sheet: u32,
     pub src_sheet: u32,
@@ -40,7 +41,7 @@ const NEIGHBOURS: [(i32, i32); 8] =
 /// layer after the previous one, so the result does not depend on the thread count. A source
 /// and output of different pixel formats is skipped (its ring is dilated as usual).
 pub fn fill_rings(
-    charts: &[CoarseChart],
+    charts: &[RingChart],
     out_tri: &dyn Fn(usize) -> [[f64; 2]; 3],
     radius: u32,
     sources: &[TileStore],
