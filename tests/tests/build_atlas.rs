@@ -20,13 +20,23 @@ fn load_output(
     (m, sheets)
 }
 
+/// A synthetic rig generated under `dir/rig`, its folder, and the built-in plugins.
+fn rig_and_plugins(
+    p: &RigParams,
+    dir: &std::path::Path,
+) -> (scanatlas_core::synth::rig::RigOutput, std::path::PathBuf, Registry) {
+    let rig_dir = dir.join("rig");
+    let rig = generate_rig(p, &rig_dir).unwrap();
+    let mut reg = Registry::default();
+    scanatlas_plugins::register_builtin(&mut reg);
+    (rig, rig_dir, reg)
+}
+
 #[test]
 fn build_from_a_synthetic_rig() {
     let dir = tempfile::tempdir().unwrap();
     let p = RigParams { faces: 2000, photos: 10, width: 320, height: 240, ..RigParams::default() };
-    let rig = generate_rig(&p, &dir.path().join("rig")).unwrap();
-    let mut reg = Registry::default();
-    scanatlas_plugins::register_builtin(&mut reg);
+    let (rig, _, reg) = rig_and_plugins(&p, dir.path());
     // The paper's pipeline: the exposure compensation (which does most of what smoothing does
     // here, see `exposure_compensation_recovers_the_photos_gains`) is off.
     let run = |cams: &std::path::Path, name: &str, smoothing: bool| {
@@ -93,9 +103,7 @@ fn smoothing_keeps_exact_photos_exact() {
         k1: 0.0,
         ..RigParams::default()
     };
-    let rig = generate_rig(&p, &dir.path().join("rig")).unwrap();
-    let mut reg = Registry::default();
-    scanatlas_plugins::register_builtin(&mut reg);
+    let (rig, _, reg) = rig_and_plugins(&p, dir.path());
     let out = dir.path().join("out").join("atlas.obj");
     let cfg = BuildConfig { smoothing: true, ..BuildConfig::default() };
     build(&rig.mesh, &rig.colmap_text, &rig.images, &out, &reg, &cfg).unwrap();
@@ -115,9 +123,7 @@ fn smoothing_keeps_exact_photos_exact() {
 fn frequency_split_saves_texels_on_smooth_regions_and_keeps_the_colour() {
     let dir = tempfile::tempdir().unwrap();
     let p = RigParams { faces: 4000, photos: 12, smooth_regions: 0.6, ..RigParams::default() };
-    let rig = generate_rig(&p, &dir.path().join("rig")).unwrap();
-    let mut reg = Registry::default();
-    scanatlas_plugins::register_builtin(&mut reg);
+    let (rig, rig_dir, reg) = rig_and_plugins(&p, dir.path());
     let run = |name: &str, cfg: BuildConfig| {
         let out = dir.path().join(name).join("atlas.obj");
         let r = build(&rig.mesh, &rig.colmap_text, &rig.images, &out, &reg, &cfg).unwrap();
@@ -200,9 +206,8 @@ fn frequency_split_saves_texels_on_smooth_regions_and_keeps_the_colour() {
     // No new colour seams: coarse sub-charts get their gutter ring from their pyramid level, so
     // the texture's step across chart borders departs no more from the true colour's step there
     // than without splitting (`rig-score`'s seam excess, which detail and blur do not move).
-    let rig_dir = rig.mesh.parent().unwrap();
     let score = |out: &std::path::Path| {
-        scanatlas_core::synth::rig_score::score_files(rig_dir, out, dir.path()).unwrap()
+        scanatlas_core::synth::rig_score::score_files(&rig_dir, out, dir.path()).unwrap()
     };
     let (sc_plain, sc_split) = (score(&out_plain), score(&out_split));
     eprintln!(
@@ -263,9 +268,7 @@ fn frequency_split_saves_texels_on_smooth_regions_and_keeps_the_colour() {
 fn exposure_compensation_recovers_the_photos_gains() {
     let dir = tempfile::tempdir().unwrap();
     let p = RigParams { faces: 3000, photos: 12, width: 400, height: 300, ..RigParams::default() };
-    let rig = generate_rig(&p, &dir.path().join("rig")).unwrap();
-    let mut reg = Registry::default();
-    scanatlas_plugins::register_builtin(&mut reg);
+    let (rig, _, reg) = rig_and_plugins(&p, dir.path());
     let run = |name: &str, exposure: bool| {
         let out = dir.path().join(name).join("atlas.obj");
         // Full resolution everywhere and no smoothing, so that the PSNR measures the gains alone.
@@ -322,10 +325,7 @@ fn the_resolution_term_textures_faces_from_their_sharpest_photos() {
         k1: 0.0,
         ..RigParams::default()
     };
-    let rig_dir = dir.path().join("rig");
-    let rig = generate_rig(&p, &rig_dir).unwrap();
-    let mut reg = Registry::default();
-    scanatlas_plugins::register_builtin(&mut reg);
+    let (rig, rig_dir, reg) = rig_and_plugins(&p, dir.path());
     let run = |name: &str, w: f64| {
         let out = dir.path().join(name).join("atlas.obj");
         let cfg =
@@ -363,10 +363,7 @@ fn faces_hidden_behind_a_ridge_leave_their_chart() {
         k1: 0.0,
         ..RigParams::default()
     };
-    let rig_dir = dir.path().join("rig");
-    let rig = generate_rig(&p, &rig_dir).unwrap();
-    let mut reg = Registry::default();
-    scanatlas_plugins::register_builtin(&mut reg);
+    let (rig, rig_dir, reg) = rig_and_plugins(&p, dir.path());
     let out = dir.path().join("out").join("atlas.obj");
     let r = build(&rig.mesh, &rig.colmap_text, &rig.images, &out, &reg, &BuildConfig::default())
         .unwrap();
@@ -395,10 +392,7 @@ fn rig_score_of_a_build_and_of_a_hand_flipped_copy() {
         k1: 0.0,
         ..RigParams::default()
     };
-    let rig_dir = dir.path().join("rig");
-    let rig = generate_rig(&p, &rig_dir).unwrap();
-    let mut reg = Registry::default();
-    scanatlas_plugins::register_builtin(&mut reg);
+    let (rig, rig_dir, reg) = rig_and_plugins(&p, dir.path());
     let out = dir.path().join("out").join("atlas.obj");
     build(&rig.mesh, &rig.colmap_text, &rig.images, &out, &reg, &BuildConfig::default()).unwrap();
     let s = score_files(&rig_dir, &out, dir.path()).unwrap();
