@@ -103,6 +103,10 @@ pub(crate) struct Engine<'t> {
     pub sep_pairs: Vec<u32>,
     pub sep_tests: Vec<(u32, u32)>,
     pub kernel: super::kernel::KernelScratch,
+    /// While `record_checks` is set, the energies of every budget check (out, in), so that a
+    /// speculative attempt can be judged again against another atlas sum (see `speculate`).
+    pub record_checks: bool,
+    pub global_checks: Vec<(f64, f64)>,
 }
 
 /// The state of an engine that a cluster's fork copies (everything but scratch and logs).
@@ -360,6 +364,8 @@ impl<'t> Engine<'t> {
             sep_tests: Vec::new(),
             kernel: Default::default(),
             base_fixed: Vec::new(),
+            record_checks: false,
+            global_checks: Vec::new(),
             t,
         }
     }
