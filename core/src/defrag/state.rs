@@ -101,7 +101,10 @@ pub(crate) struct Engine<'t> {
     pub sep_verts: Vec<u32>,
     pub sep_faces: Vec<u32>,
     pub sep_pairs: Vec<u32>,
-    pub sep_tests: Vec<(u32, u32)>,
+    pub sep_tests: Vec<(u32, super::separate::Other)>,
+    /// The triangles of the faces around the moving vertex, and of the faces that stay put.
+    pub sep_fan_tris: Vec<Tri2>,
+    pub sep_static: Vec<Tri2>,
     pub kernel: super::kernel::KernelScratch,
     /// While `record_checks` is set, the energies of every budget check (out, in), so that a
     /// speculative attempt can be judged again against another atlas sum (see `speculate`).
@@ -362,6 +365,8 @@ impl<'t> Engine<'t> {
             sep_faces: Vec::new(),
             sep_pairs: Vec::new(),
             sep_tests: Vec::new(),
+            sep_fan_tris: Vec::new(),
+            sep_static: Vec::new(),
             kernel: Default::default(),
             base_fixed: Vec::new(),
             record_checks: false,
