@@ -6,7 +6,9 @@ use std::time::Instant;
 
 use proptest::prelude::*;
 use scanatlas_core::Model;
-use scanatlas_core::defrag::{MergeOptions, MergeReport, merge_charts, merged_model};
+use scanatlas_core::defrag::{
+    MergeOptions, MergeReport, merge_charts, merge_charts_parallel, merged_model,
+};
 use scanatlas_core::index::{MaterialId, SheetId, UvId, VertexId};
 use scanatlas_core::model::{Face, ImageSource, Material, Sheet};
 use scanatlas_core::pipeline::sheet_sizes;
@@ -129,6 +131,37 @@ fn the_same_input_merges_to_the_same_bits() {
     assert_eq!(bits(&a), bits(&b));
     let ids = |m: &Model| m.faces.iter().map(|f| f.uv).collect::<Vec<_>>();
     assert_eq!(ids(&a), ids(&b));
+}
+
+#[test]
+fn judging_ahead_on_a_second_engine_merges_to_the_serial_bits() {
+    let model = synthetic(Shape::Blob, 10_000, 5);
+    let mut reg = Registry::default();
+    scanatlas_plugins::register_builtin(&mut reg);
+    let scorer = reg.scorer("paper", &Params::new()).expect("paper scorer");
+    let run = |solvers: usize| {
+        let mut t = Topology::build(&model, &sheet_sizes(&model)).expect("valid model");
+        let solvers = (0..solvers).map(|_| reg.solver("arap", &Params::new()).unwrap()).collect();
+        // One cluster for the whole model: the last (single-queue) round does all the work, with
+        // a shadow engine judging ahead when there are two solvers.
+        let opts = MergeOptions { cluster_faces: 1 << 30, ..Default::default() };
+        let (report, _) =
+            merge_charts_parallel(&mut t, scorer.as_ref(), solvers, &opts).expect("valid options");
+        (report, merged_model(&model, &t))
+    };
+    let (ra, a) = run(1);
+    let (rb, b) = run(2);
+    assert!(ra.accepted > 100, "too little merged for a comparison: {}", ra.accepted);
+    let counts = |r: &MergeReport| {
+        (r.attempted, r.accepted, r.rejected.overlap, r.separations_done, r.solver_iterations)
+    };
+    assert_eq!(counts(&ra), counts(&rb));
+    assert_eq!(ra.timings.judged_ahead, 0);
+    assert!(rb.timings.judged_ahead > 0, "nothing was judged ahead: {:?}", rb.timings);
+    let bits = |m: &Model| m.uvs.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert!(bits(&a) == bits(&b), "UVs differ with a second engine");
+    let ids = |m: &Model| m.faces.iter().map(|f| f.uv).collect::<Vec<_>>();
+    assert!(ids(&a) == ids(&b), "UV indices differ with a second engine");
 }
 
 const SHEET: u32 = 2048;

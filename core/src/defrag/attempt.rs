@@ -12,10 +12,12 @@ use super::ops::{OpGeometry, dist};
 use super::patch::{find, union};
 use super::separate::area_bound;
 use super::state::{Engine, NONE, orig_tri};
+use super::undo::Saved;
 use crate::geometry::{
     Tri2, isometric_energy, signed_area2, triangles_overlap_beyond_noise as overlap,
 };
 use crate::plugin::LocalSolver;
+use crate::topology::{HalfEdgeId, UvVertId};
 
 /// Twice the evaluator's degenerate-area threshold (1e-6 texel²): a triangle whose doubled area
 /// falls below this has become degenerate.
@@ -24,6 +26,33 @@ pub(super) const DEGENERATE_AREA2: f64 = 2e-6;
 #[inline]
 fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
+}
+
+/// What an attempt does with a success.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Mode {
+    Commit,
+    /// Commit, and record what the commit wrote.
+    Record,
+    /// Record what the commit would write, then roll back.
+    Speculate,
+}
+
+/// What the commit of a successful attempt wrote (see `Engine::apply_record`).
+#[derive(Clone, Debug)]
+pub(crate) struct CommitRecord {
+    pub g: OpGeometry,
+    energies: (f64, f64, f64),
+    free: Vec<u32>,
+    seeds: Vec<(u32, f64)>,
+    opt_faces: Vec<u32>,
+    moved: Vec<u32>,
+    pos: Vec<(u32, [f64; 2])>,
+    corner: Vec<(u32, UvVertId)>,
+    twin: Vec<(u32, HalfEdgeId)>,
+    head: Vec<(u32, u32)>,
+    tail: Vec<(u32, u32)>,
+    next: Vec<(u32, u32)>,
 }
 
 /// What the checks found.
@@ -46,6 +75,39 @@ impl Engine<'_> {
         op: u32,
         solver: &mut dyn LocalSolver,
     ) -> Result<OpGeometry, RejectReason> {
+        self.attempt_as(op, solver, Mode::Commit).0
+    }
+
+    /// Attempts operation `op` like [`Engine::attempt`], and on success also hands back what the
+    /// commit wrote, so that a replica of this engine can replay it (see `speculate`).
+    pub(super) fn attempt_recorded(
+        &mut self,
+        op: u32,
+        solver: &mut dyn LocalSolver,
+    ) -> (Result<OpGeometry, RejectReason>, Option<CommitRecord>) {
+        self.attempt_as(op, solver, Mode::Record)
+    }
+
+    /// Judges operation `op` without keeping it: the layout is left exactly as before, and a
+    /// success is handed back as the record of what its commit would write.
+    pub(super) fn attempt_speculative(
+        &mut self,
+        op: u32,
+        solver: &mut dyn LocalSolver,
+    ) -> Result<CommitRecord, RejectReason> {
+        match self.attempt_as(op, solver, Mode::Speculate) {
+            (Ok(_), Some(r)) => Ok(r),
+            (Err(e), _) => Err(e),
+            (Ok(_), None) => unreachable!("a speculative success always has its record"),
+        }
+    }
+
+    fn attempt_as(
+        &mut self,
+        op: u32,
+        solver: &mut dyn LocalSolver,
+        mode: Mode,
+    ) -> (Result<OpGeometry, RejectReason>, Option<CommitRecord>) {
         let t0 = Instant::now();
         let g = self.op_geometry(op);
         self.align_and_fuse(op, &g);
@@ -57,10 +119,18 @@ impl Engine<'_> {
         self.report.timings.area_ms += ms(t1);
 
         let result = self.check_and_solve(&g, solver);
+        let mut record = None;
         match result {
             Ok(v) => {
+                if mode != Mode::Commit {
+                    record = Some(self.record(&g, v));
+                }
                 let t = Instant::now();
-                self.commit(&g, v);
+                if mode == Mode::Speculate {
+                    self.rollback();
+                } else {
+                    self.commit(&g, v);
+                }
                 self.report.timings.commit_ms += ms(t);
             }
             Err(_) => {
@@ -70,7 +140,74 @@ impl Engine<'_> {
             }
         }
         self.reset_scratch();
-        result.map(|_| g)
+        (result.map(|_| g), record)
+    }
+
+    /// What the commit of the attempt in progress writes: the new value of every slot the undo
+    /// logs hold, and the lists and energies that `commit` reads.
+    fn record(&self, g: &OpGeometry, energies: (f64, f64, f64)) -> CommitRecord {
+        fn values<T: Copy>(log: &Saved<T>, table: &[T]) -> Vec<(u32, T)> {
+            log.slots().map(|s| (s, table[s as usize])).collect()
+        }
+        CommitRecord {
+            g: *g,
+            energies,
+            free: self.free.clone(),
+            seeds: self.seeds.clone(),
+            opt_faces: self.opt_faces.clone(),
+            moved: self.moved.clone(),
+            pos: values(&self.log.pos, &self.t.uv_pos),
+            corner: values(&self.log.corner, &self.t.corner_uv),
+            twin: values(&self.log.twin, &self.t.he_uv_twin),
+            head: values(&self.log.head, &self.fan_head),
+            tail: values(&self.log.tail, &self.fan_tail),
+            next: values(&self.log.next, &self.fan_next),
+        }
+    }
+
+    /// Commits a success recorded on another engine whose state was this one's for everything
+    /// the attempt read: writes the recorded slots through the undo logs (so that `commit` reads
+    /// the state before the merge as it does after an attempt), puts every face whose triangle
+    /// moved into the grid, and commits.
+    pub(super) fn apply_record(&mut self, r: &CommitRecord) -> OpGeometry {
+        fn write<T: Copy>(log: &mut Saved<T>, table: &mut [T], values: &[(u32, T)]) {
+            for &(s, v) in values {
+                log.set(table, s as usize, v);
+            }
+        }
+        write(&mut self.log.pos, &mut self.t.uv_pos, &r.pos);
+        write(&mut self.log.corner, &mut self.t.corner_uv, &r.corner);
+        write(&mut self.log.twin, &mut self.t.he_uv_twin, &r.twin);
+        write(&mut self.log.head, &mut self.fan_head, &r.head);
+        write(&mut self.log.tail, &mut self.fan_tail, &r.tail);
+        write(&mut self.log.next, &mut self.fan_next, &r.next);
+        self.free.clone_from(&r.free);
+        self.seeds.clone_from(&r.seeds);
+        self.opt_faces.clone_from(&r.opt_faces);
+        self.moved.clone_from(&r.moved);
+        // Every face with a corner on a vertex that moved or changed: a superset of the faces the
+        // attempt itself put into the grid, which is all the grid needs (see `grid`).
+        let ep = self.next_epoch();
+        for i in 0..r.pos.len() + r.corner.len() {
+            let v = if i < r.pos.len() {
+                r.pos[i].0 as usize
+            } else {
+                r.corner[i - r.pos.len()].1.idx()
+            };
+            let mut c = self.fan_head[v];
+            while c != NONE {
+                let f = c / 3;
+                if self.face_stamp[f as usize] != ep {
+                    self.face_stamp[f as usize] = ep;
+                    let tri = self.tri(f as usize);
+                    self.grid.insert(f, &tri);
+                }
+                c = self.fan_next[c as usize];
+            }
+        }
+        self.commit(&r.g, r.energies);
+        self.reset_scratch();
+        r.g
     }
 
     /// Moves chart b by the fit, then fuses each group of paired vertices into its smallest
@@ -328,9 +465,10 @@ impl Engine<'_> {
             out_den += w;
             in_num += self.face_energy[f];
         }
-        let global = (self.energy_num + out_num - in_num) / self.energy_den.max(f64::MIN_POSITIVE);
-        // NaN energies fail both tests.
-        if global.is_nan() || global > self.opts.global_distortion {
+        if self.record_checks {
+            self.global_checks.push((out_num, in_num));
+        }
+        if self.over_budget(self.energy_num, out_num, in_num) {
             return Verdict::Reject(RejectReason::GlobalDistortion);
         }
         let local = if out_den > 0.0 { out_num / out_den } else { 0.0 };
@@ -385,6 +523,14 @@ impl Engine<'_> {
         } else {
             Verdict::Overlap
         }
+    }
+
+    /// Whether an attempt that takes the energy of its optimization area from `in_num` to
+    /// `out_num` breaks the atlas-wide budget when the atlas sum is `energy_num` (NaN energies
+    /// break it).
+    pub(super) fn over_budget(&self, energy_num: f64, out_num: f64, in_num: f64) -> bool {
+        let global = (energy_num + out_num - in_num) / self.energy_den.max(f64::MIN_POSITIVE);
+        global.is_nan() || global > self.opts.global_distortion
     }
 
     /// Moves free vertices to separate the offending pairs and judges the result again; the

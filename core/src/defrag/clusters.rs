@@ -102,12 +102,18 @@ pub fn merge_charts_parallel(
     if master.report.stop != StopReason::TimeLimit {
         let round_start = Instant::now();
         let (attempted0, accepted0) = (master.report.attempted, master.report.accepted);
+        let mut pool = pool.into_inner().unwrap_or_default();
         let mut solver = pool
-            .into_inner()
-            .ok()
-            .and_then(|mut p| p.pop())
+            .pop()
             .ok_or(DefragError::BadOption { name: "threads", msg: "no solver to run" })?;
-        master.report.stop = master.run_queue(scorer, &mut *solver, None, deadline);
+        // The serial baseline (no clusters) stays on one thread; otherwise a second solver judges
+        // operations ahead of the queue (see `speculate`), with the same result.
+        master.report.stop = match pool.pop() {
+            Some(mut shadow_solver) if opts.cluster_faces > 0 => {
+                master.run_queue_speculative(scorer, &mut *solver, &mut *shadow_solver, deadline)
+            }
+            _ => master.run_queue(scorer, &mut *solver, None, deadline),
+        };
         if !master.report.rounds.is_empty() {
             master.report.rounds.push(ClusterRound {
                 clusters: 1,

@@ -13,7 +13,7 @@ use super::{DefragError, MergeOptions, MergeReport, StopReason};
 use crate::plugin::{LocalSolver, MergeScorer, Score, Veto};
 use crate::topology::{ChartId, OpKind, Topology};
 
-type Queue = BinaryHeap<(OrdF64, Reverse<u32>, u32)>;
+pub(super) type Queue = BinaryHeap<(OrdF64, Reverse<u32>, u32)>;
 
 /// Runs the merge stage on `t` in place with a single queue (the serial baseline): on return its
 /// UV vertices, corners, twins, chart ids and chart caches describe the merged layout.
@@ -52,49 +52,90 @@ impl Engine<'_> {
         deadline: Option<Instant>,
     ) -> StopReason {
         let mut queue = Queue::new();
-        let ts = Instant::now();
-        for op in 0..self.ops.len() as u32 {
-            let live = matches!(self.ops[op as usize].state, OpState::Queued | OpState::Vetoed(_));
-            if live && self.in_scope(op, scope) {
-                self.rescore(op, scorer, &mut queue, scope);
-            }
-        }
-        self.report.timings.scoring_ms += ts.elapsed().as_secs_f64() * 1e3;
-
+        self.fill_queue(scorer, &mut queue, scope);
         let border_stop = self.opts.uv_border_target * self.border_len_input;
         loop {
-            if deadline.is_some_and(|d| Instant::now() >= d) {
-                return StopReason::TimeLimit;
-            }
-            if self.opts.uv_border_target > 0.0 && self.border_len < border_stop {
-                return StopReason::BorderTarget;
+            if let Some(stop) = self.stop_now(border_stop, deadline) {
+                return stop;
             }
             let Some((_, Reverse(op), version)) = queue.pop() else {
                 return StopReason::QueueEmpty;
             };
-            let o = &self.ops[op as usize];
-            if o.version != version || o.state != OpState::Queued {
+            if !self.entry_live(op, version) {
                 continue;
             }
             self.report.attempted += 1;
-            match self.attempt(op, solver) {
-                Ok(g) => {
-                    self.report.accepted += 1;
-                    if self.ops[op as usize].failures > 0 {
-                        self.report.accepted_after_failure += 1;
-                    }
-                    self.ops[op as usize].state = OpState::Done;
-                    let ts = Instant::now();
-                    self.after_success(&g, scorer, &mut queue, scope);
-                    self.report.timings.scoring_ms += ts.elapsed().as_secs_f64() * 1e3;
+            let result = self.attempt(op, solver);
+            self.settle(op, result, scorer, &mut queue, scope);
+        }
+    }
+
+    /// Scores every queued and vetoed operation in `scope` into `queue`.
+    pub(super) fn fill_queue(
+        &mut self,
+        scorer: &dyn MergeScorer,
+        queue: &mut Queue,
+        scope: Option<&[bool]>,
+    ) {
+        let ts = Instant::now();
+        for op in 0..self.ops.len() as u32 {
+            let live = matches!(self.ops[op as usize].state, OpState::Queued | OpState::Vetoed(_));
+            if live && self.in_scope(op, scope) {
+                self.rescore(op, scorer, queue, scope);
+            }
+        }
+        self.report.timings.scoring_ms += ts.elapsed().as_secs_f64() * 1e3;
+    }
+
+    /// The stop criterion that holds before the next pop, if any.
+    pub(super) fn stop_now(
+        &self,
+        border_stop: f64,
+        deadline: Option<Instant>,
+    ) -> Option<StopReason> {
+        if deadline.is_some_and(|d| Instant::now() >= d) {
+            return Some(StopReason::TimeLimit);
+        }
+        if self.opts.uv_border_target > 0.0 && self.border_len < border_stop {
+            return Some(StopReason::BorderTarget);
+        }
+        None
+    }
+
+    /// Whether a queue entry is the current version of a queued operation (else it is stale, and
+    /// stays stale: versions only grow).
+    pub(super) fn entry_live(&self, op: u32, version: u32) -> bool {
+        let o = &self.ops[op as usize];
+        o.version == version && o.state == OpState::Queued
+    }
+
+    /// Books the outcome of an attempt of `op`: the operation's state and the counts, and after
+    /// a success the rescoring around the merged chart.
+    pub(super) fn settle(
+        &mut self,
+        op: u32,
+        result: Result<OpGeometry, super::RejectReason>,
+        scorer: &dyn MergeScorer,
+        queue: &mut Queue,
+        scope: Option<&[bool]>,
+    ) {
+        match result {
+            Ok(g) => {
+                self.report.accepted += 1;
+                if self.ops[op as usize].failures > 0 {
+                    self.report.accepted_after_failure += 1;
                 }
-                Err(r) => {
-                    self.report.rejected.add(r);
-                    let o = &mut self.ops[op as usize];
-                    o.failures += 1;
-                    o.version += 1;
-                    o.state = OpState::Failed(r);
-                }
+                self.ops[op as usize].state = OpState::Done;
+                let ts = Instant::now();
+                self.after_success(&g, scorer, queue, scope);
+                self.report.timings.scoring_ms += ts.elapsed().as_secs_f64() * 1e3;
+            }
+            Err(r) => {
+                self.report.rejected.add(r);
+                let o = &mut self.ops[op as usize];
+                o.failures += 1;
+                o.version += 1;
+                o.state = OpState::Failed(r);
             }
         }
     }

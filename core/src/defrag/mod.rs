@@ -12,6 +12,7 @@
 //! - `patch`: the optimization area, the local problem and its topology check;
 //! - `attempt`: one merge attempt with its checks, commit and rollback;
 //! - `greedy`: the priority queue and the rescoring after each accepted merge;
+//! - `speculate`: the last round's queue with a second engine judging operations ahead of it;
 //! - `zero_area`: charts of zero-area faces joined to a neighbouring chart at the end;
 //! - `unfold`: charts folded flat onto themselves laid out again as a flat net at the end.
 
@@ -24,6 +25,7 @@ mod ops;
 mod output;
 mod patch;
 mod separate;
+mod speculate;
 mod state;
 mod undo;
 mod unfold;
@@ -265,6 +267,12 @@ pub struct MergeTimings {
     pub commit_ms: f64,
     pub rollback_ms: f64,
     pub total_ms: f64,
+    /// The last round's operations judged ahead (by either engine, see `speculate`), those of
+    /// them taken over when their turn came, and the time the master waited for the second
+    /// engine. They depend on timing, hence their place among the timings.
+    pub judged_ahead: u64,
+    pub judgements_taken: u64,
+    pub wait_ms: f64,
 }
 
 /// Why the greedy loop ended.
@@ -387,5 +395,8 @@ impl MergeReport {
         t.separate_ms += u.separate_ms;
         t.commit_ms += u.commit_ms;
         t.rollback_ms += u.rollback_ms;
+        t.judged_ahead += u.judged_ahead;
+        t.judgements_taken += u.judgements_taken;
+        t.wait_ms += u.wait_ms;
     }
 }

@@ -51,6 +51,14 @@ pub(crate) fn area_bound(before: f64, now: f64) -> AreaBound {
     }
 }
 
+/// The second face of a pair that the separation watches: a face around the moving vertex (its
+/// index in `sep_faces`) or one that stays put (its index in `sep_static`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Other {
+    Fan(u32),
+    Static(u32),
+}
+
 impl Engine<'_> {
     /// Tries to separate the pairs in `self.offenders` by moving free vertices; `true` when a
     /// sweep left none of them overlapping (the caller judges the layout again in full).
@@ -129,8 +137,11 @@ impl Engine<'_> {
             &mut self.candidates,
         );
         // The pairs to watch: overlaps two faces of one chart had before the attempt stay
-        // tolerated wherever the vertex goes, so they are left out once here.
+        // tolerated wherever the vertex goes, so they are left out once here. Each pair holds
+        // the index of its moving face in `sep_faces`, and for the other face either its index
+        // there too (when it moves with the vertex) or its triangle, which stays put.
         self.sep_tests.clear();
+        self.sep_static.clear();
         for i in 0..self.sep_faces.len() {
             let f = self.sep_faces[i] as usize;
             for j in 0..self.candidates.len() {
@@ -141,18 +152,26 @@ impl Engine<'_> {
                 }
                 let tolerated = cs == self.t.face_chart[f]
                     && triangles_overlap_beyond_noise(self.tri_before(f), self.tri_before(s));
-                if !tolerated {
-                    self.sep_tests.push((f as u32, s as u32));
+                if tolerated {
+                    continue;
                 }
+                let other = match self.sep_faces.iter().position(|&x| x as usize == s) {
+                    Some(k) => Other::Fan(k as u32),
+                    None => {
+                        self.sep_static.push(self.tri(s));
+                        Other::Static(self.sep_static.len() as u32 - 1)
+                    }
+                };
+                self.sep_tests.push((i as u32, other));
             }
         }
         let p0 = self.t.uv_pos[v as usize];
+        self.fan_tris_now();
         // The overlapping pairs go first: a move must undo some of them before the others are
         // worth testing, and it must undo more than it creates.
         let mut count0 = 0;
         for i in 0..self.sep_tests.len() {
-            let (f, s) = self.sep_tests[i];
-            if triangles_overlap_beyond_noise(self.tri(f as usize), self.tri(s as usize)) {
+            if self.test_overlaps(self.sep_tests[i]) {
                 self.sep_tests.swap(i, count0);
                 count0 += 1;
             }
@@ -167,11 +186,18 @@ impl Engine<'_> {
                 let a = std::f64::consts::TAU * d as f64 / DIRECTIONS as f64;
                 let p = [p0[0] + step * scale * a.cos(), p0[1] + step * scale * a.sin()];
                 self.t.uv_pos[v as usize] = p;
-                if !self.faces_keep_orientation() || !self.fewer_overlaps(count0) {
+                self.fan_tris_now();
+                if !self.faces_keep_orientation() {
                     continue;
                 }
+                // The distortion is far cheaper than the overlap tests and settles most moves on
+                // its own (too distorted, or no better than the best so far); both are pure, so
+                // testing it first picks the same move.
                 let energy = self.energy_around();
-                if energy <= limit && best.is_none_or(|(_, e)| energy < e) {
+                if energy <= limit
+                    && best.is_none_or(|(_, e)| energy < e)
+                    && self.fewer_overlaps(count0)
+                {
                     best = Some((p, energy));
                 }
             }
@@ -189,12 +215,33 @@ impl Engine<'_> {
         false
     }
 
+    /// Takes the current triangles of the faces in `sep_faces` into `sep_fan_tris`.
+    fn fan_tris_now(&mut self) {
+        self.sep_fan_tris.clear();
+        for i in 0..self.sep_faces.len() {
+            let tri = self.tri(self.sep_faces[i] as usize);
+            self.sep_fan_tris.push(tri);
+        }
+    }
+
+    /// Whether the two faces of a pair of `sep_tests` overlap, at the triangles of
+    /// `sep_fan_tris` and `sep_static`.
+    #[inline]
+    fn test_overlaps(&self, (i, other): (u32, Other)) -> bool {
+        let t = self.sep_fan_tris[i as usize];
+        let u = match other {
+            Other::Fan(k) => self.sep_fan_tris[k as usize],
+            Other::Static(k) => self.sep_static[k as usize],
+        };
+        triangles_overlap_beyond_noise(t, u)
+    }
+
     /// Whether every face in `sep_faces` keeps a doubled area its fold check accepts: the chart's
     /// orientation for a face that had it, never the wrong way for a degenerate one, and never
     /// degenerate for one folded before the attempt (on either side).
     fn faces_keep_orientation(&self) -> bool {
-        self.sep_faces.iter().all(|&f| {
-            let (before, now) = (self.face_area2[f as usize], signed_area2(self.tri(f as usize)));
+        self.sep_faces.iter().zip(&self.sep_fan_tris).all(|(&f, &tri)| {
+            let (before, now) = (self.face_area2[f as usize], signed_area2(tri));
             if before <= -DEGENERATE_AREA2 {
                 now.abs() >= 2.0 * DEGENERATE_AREA2
             } else {
@@ -206,16 +253,13 @@ impl Engine<'_> {
     /// Whether fewer of the pairs in `sep_tests` overlap than the first `count0`, which all did
     /// before the move.
     fn fewer_overlaps(&self, count0: usize) -> bool {
-        let overlaps = |&(f, s): &(u32, u32)| {
-            triangles_overlap_beyond_noise(self.tri(f as usize), self.tri(s as usize))
-        };
-        let undone = self.sep_tests[..count0].iter().filter(|p| !overlaps(p)).count();
+        let undone = self.sep_tests[..count0].iter().filter(|&&p| !self.test_overlaps(p)).count();
         if undone == 0 {
             return false;
         }
         let mut created = 0;
-        for p in &self.sep_tests[count0..] {
-            if overlaps(p) {
+        for &p in &self.sep_tests[count0..] {
+            if self.test_overlaps(p) {
                 created += 1;
                 if created >= undone {
                     return false;
@@ -225,13 +269,13 @@ impl Engine<'_> {
         true
     }
 
-    /// The area-weighted mean distortion of the faces in `sep_faces`.
+    /// The area-weighted mean distortion of the faces in `sep_faces` (at `sep_fan_tris`).
     fn energy_around(&self) -> f64 {
         let (mut num, mut den) = (0.0, 0.0);
-        for &f in &self.sep_faces {
+        for (&f, &tri) in self.sep_faces.iter().zip(&self.sep_fan_tris) {
             let f = f as usize;
             let w = self.face_weight[f];
-            num += w * isometric_energy(orig_tri(self.t, f), self.tri(f));
+            num += w * isometric_energy(orig_tri(self.t, f), tri);
             den += w;
         }
         if den > 0.0 { num / den } else { 0.0 }

@@ -101,12 +101,19 @@ pub(crate) struct Engine<'t> {
     pub sep_verts: Vec<u32>,
     pub sep_faces: Vec<u32>,
     pub sep_pairs: Vec<u32>,
-    pub sep_tests: Vec<(u32, u32)>,
+    pub sep_tests: Vec<(u32, super::separate::Other)>,
+    /// The triangles of the faces around the moving vertex, and of the faces that stay put.
+    pub sep_fan_tris: Vec<Tri2>,
+    pub sep_static: Vec<Tri2>,
     pub kernel: super::kernel::KernelScratch,
+    /// While `record_checks` is set, the energies of every budget check (out, in), so that a
+    /// speculative attempt can be judged again against another atlas sum (see `speculate`).
+    pub record_checks: bool,
+    pub global_checks: Vec<(f64, f64)>,
 }
 
 /// The state of an engine that a cluster's fork copies (everything but scratch and logs).
-struct Parts {
+pub(crate) struct Parts {
     fan_head: Vec<u32>,
     fan_tail: Vec<u32>,
     fan_next: Vec<u32>,
@@ -271,7 +278,12 @@ impl<'t> Engine<'t> {
     /// topology: the worker of one cluster. Scratch and undo logs start empty; the report starts
     /// from zero so that the cluster's counts can be added to the master's.
     pub fn fork<'u>(&self, t: &'u mut Topology) -> Engine<'u> {
-        let parts = Parts {
+        Engine::assemble(t, self.opts.clone(), self.parts())
+    }
+
+    /// A copy of this engine's state, for a fork.
+    pub(crate) fn parts(&self) -> Parts {
+        Parts {
             fan_head: self.fan_head.clone(),
             fan_tail: self.fan_tail.clone(),
             fan_next: self.fan_next.clone(),
@@ -292,12 +304,11 @@ impl<'t> Engine<'t> {
             commits: self.commits,
             vert_changed: self.vert_changed.clone(),
             report: MergeReport::default(),
-        };
-        Engine::assemble(t, self.opts.clone(), parts)
+        }
     }
 
     /// The engine from its state and fresh scratch buffers.
-    fn assemble(t: &'t mut Topology, opts: MergeOptions, p: Parts) -> Self {
+    pub(crate) fn assemble(t: &'t mut Topology, opts: MergeOptions, p: Parts) -> Self {
         let nf = t.face_chart.len();
         let nv = t.uv_pos.len();
         let nc = t.corner_uv.len();
@@ -358,8 +369,12 @@ impl<'t> Engine<'t> {
             sep_faces: Vec::new(),
             sep_pairs: Vec::new(),
             sep_tests: Vec::new(),
+            sep_fan_tris: Vec::new(),
+            sep_static: Vec::new(),
             kernel: Default::default(),
             base_fixed: Vec::new(),
+            record_checks: false,
+            global_checks: Vec::new(),
             t,
         }
     }

@@ -1,0 +1,342 @@
+//! Speculative attempts for the last round, where one queue holds the whole atlas: a second
+//! engine (the shadow, a replica of the master on its own copy of the topology) judges operations
+//! that are further down the queue while the master attempts the one at the top, and the master
+//! takes a judgement over when it reaches that operation, if nothing the judgement read has
+//! changed since. The master still settles every operation in queue order, so the result is the
+//! serial one whatever the timing.
+//!
+//! What an attempt reads: the faces, UV vertices, half-edges and caches of its two charts (the
+//! grid only for faces of those charts, and only as a set: every candidate is tested against its
+//! current triangle), its operation's links, and the atlas-wide energy sum for the budget check.
+//! A commit writes only the faces, vertices and half-edges of the two charts it merges. So a
+//! judgement made after the master's first `at` commits still holds after more of them if none of
+//! the later commits touched either of its charts, and every budget check along its way comes out
+//! the same with the master's energy sum as with the one it was judged against.
+//!
+//! The shadow keeps up by replaying each of the master's commits from a record of the slots it
+//! wrote (`Engine::apply_record`), in the master's order, so its state after `at` replays is the
+//! master's after `at` commits, bit for bit.
+
+use std::cmp::Reverse;
+use std::sync::mpsc::{Receiver, Sender, channel};
+use std::time::Instant;
+
+use super::attempt::CommitRecord;
+use super::greedy::Queue;
+use super::ops::EngineOp;
+use super::state::Engine;
+use super::{MergeReport, RejectReason, StopReason};
+use crate::plugin::{LocalSolver, MergeScorer};
+use crate::topology::ChartId;
+
+/// Judgements the shadow may have queued or in progress at once. One keeps the shadow's inputs
+/// fresh; a second lets it start on the next one while the master settles the first.
+const MAX_IN_FLIGHT: usize = 2;
+
+/// Queue entries looked at, from the top, for an operation the shadow may judge.
+const LOOK_AHEAD: usize = 8;
+
+/// What the master sends the shadow, in order.
+enum ToShadow {
+    /// A commit of the master, to replay.
+    Replay(Box<CommitRecord>),
+    /// An operation to judge (its table entry as the master has it).
+    Judge { op: u32, version: u32, entry: EngineOp },
+}
+
+/// A judgement of the shadow.
+struct Judged {
+    op: u32,
+    version: u32,
+    /// Master commits replayed before judging.
+    at: usize,
+    charts: (ChartId, ChartId),
+    /// The atlas energy sum it was judged against, and the (out, in) energies of every budget
+    /// check on its way.
+    energy_num: f64,
+    checks: Vec<(f64, f64)>,
+    outcome: Result<CommitRecord, RejectReason>,
+    /// The counts and times of the attempt (no commit in them).
+    report: MergeReport,
+}
+
+/// A judgement asked for and not yet received.
+struct InFlight {
+    op: u32,
+    version: u32,
+    at: usize,
+    charts: (ChartId, ChartId),
+}
+
+/// Whether charts `c` are untouched by the commits in `commits`.
+fn untouched(c: (ChartId, ChartId), commits: &[(ChartId, ChartId)]) -> bool {
+    commits.iter().all(|&(a, b)| a != c.0 && a != c.1 && b != c.0 && b != c.1)
+}
+
+/// Whether two pairs of charts share a chart.
+fn share(x: (ChartId, ChartId), y: (ChartId, ChartId)) -> bool {
+    x.0 == y.0 || x.0 == y.1 || x.1 == y.0 || x.1 == y.1
+}
+
+impl Engine<'_> {
+    /// The greedy loop over the whole atlas (no scope) with a shadow engine judging ahead on
+    /// `shadow_solver`: the same result as `run_queue`, in less time on two cores.
+    pub(crate) fn run_queue_speculative(
+        &mut self,
+        scorer: &dyn MergeScorer,
+        solver: &mut dyn LocalSolver,
+        shadow_solver: &mut dyn LocalSolver,
+        deadline: Option<Instant>,
+    ) -> StopReason {
+        // The copies are made on a worker of the pool, whose allocator arena holds what the
+        // cluster forks of the earlier rounds freed: made on this thread they would come on top
+        // of it (venus: 943 MB peak against 807 MB without the shadow).
+        let (mut topo, parts) = rayon::join(|| (self.t.clone(), self.parts()), || ()).0;
+        let mut shadow = Engine::assemble(&mut topo, self.opts.clone(), parts);
+        let (to_shadow, shadow_rx) = channel::<ToShadow>();
+        let (shadow_tx, from_shadow) = channel::<Judged>();
+        std::thread::scope(|s| {
+            s.spawn(move || shadow_loop(&mut shadow, shadow_solver, shadow_rx, shadow_tx));
+            // Dropping the sender on return ends the shadow's loop.
+            self.speculative_loop(scorer, solver, to_shadow, &from_shadow, deadline)
+        })
+    }
+
+    fn speculative_loop(
+        &mut self,
+        scorer: &dyn MergeScorer,
+        solver: &mut dyn LocalSolver,
+        to_shadow: Sender<ToShadow>,
+        from_shadow: &Receiver<Judged>,
+        deadline: Option<Instant>,
+    ) -> StopReason {
+        let mut queue = Queue::new();
+        self.fill_queue(scorer, &mut queue, None);
+        let border_stop = self.opts.uv_border_target * self.border_len_input;
+        let mut s = Pending {
+            commits: Vec::new(),
+            in_flight: Vec::new(),
+            done: Vec::new(),
+            to_shadow: Some(to_shadow),
+            judged: 0,
+        };
+        let stop = loop {
+            if let Some(stop) = self.stop_now(border_stop, deadline) {
+                break stop;
+            }
+            let Some((_, Reverse(op), version)) = queue.pop() else {
+                break StopReason::QueueEmpty;
+            };
+            if !self.entry_live(op, version) {
+                continue;
+            }
+            self.report.attempted += 1;
+            let charts = self.op_charts(op);
+            while let Ok(j) = from_shadow.try_recv() {
+                s.receive(j);
+            }
+            // Judgements of operations settled or rescored since can never be taken.
+            s.done.retain(|j| self.entry_live(j.op, j.version));
+            self.dispatch(&mut queue, charts, &mut s);
+            let judged =
+                self.judgement(op, version, charts, &mut queue, &mut s, solver, from_shadow);
+            let (result, record) = match judged {
+                Some(j) => {
+                    self.report.absorb(&j.report);
+                    self.report.timings.judgements_taken += 1;
+                    match j.outcome {
+                        Ok(r) => (Ok(self.apply_record(&r)), Some(r)),
+                        Err(e) => (Err(e), None),
+                    }
+                }
+                None => self.attempt_recorded(op, solver),
+            };
+            if let Some(r) = record {
+                let c = (r.g.a, r.g.b);
+                s.commits.push(c);
+                s.done.retain(|j| !share(j.charts, c));
+                if let Some(tx) = &s.to_shadow
+                    && tx.send(ToShadow::Replay(Box::new(r))).is_err()
+                {
+                    s.to_shadow = None;
+                }
+            }
+            self.settle(op, result, scorer, &mut queue, None);
+        };
+        self.report.timings.judged_ahead += s.judged;
+        stop
+    }
+
+    /// The first live operation below the top of the queue, within `LOOK_AHEAD` entries, that is
+    /// not judged or pending already and whose charts are apart from `charts` (the operation
+    /// being settled) and from those of every pending judgement.
+    fn pick(
+        &self,
+        queue: &mut Queue,
+        charts: (ChartId, ChartId),
+        s: &Pending,
+    ) -> Option<(u32, u32, (ChartId, ChartId))> {
+        let mut looked = Vec::with_capacity(LOOK_AHEAD);
+        let mut found = None;
+        while looked.len() < LOOK_AHEAD {
+            let Some(entry) = queue.pop() else { break };
+            let (_, Reverse(op), version) = entry;
+            // Stale entries would only be skipped when popped: they need not go back.
+            if !self.entry_live(op, version) {
+                continue;
+            }
+            looked.push(entry);
+            let c = self.op_charts(op);
+            let known = s.done.iter().any(|j| (j.op, j.version) == (op, version))
+                || s.in_flight.iter().any(|f| (f.op, f.version) == (op, version));
+            if !known && !share(c, charts) && !s.in_flight.iter().any(|f| share(f.charts, c)) {
+                found = Some((op, version, c));
+                break;
+            }
+        }
+        // Every entry is distinct (versions only grow), so the heap pops the same order whatever
+        // its inner arrangement: putting them back changes nothing.
+        queue.extend(looked);
+        found
+    }
+
+    /// Asks the shadow to judge operations from `pick` until `MAX_IN_FLIGHT` are pending.
+    fn dispatch(&self, queue: &mut Queue, charts: (ChartId, ChartId), s: &mut Pending) {
+        while s.in_flight.len() < MAX_IN_FLIGHT {
+            let Some(tx) = &s.to_shadow else { return };
+            let Some((op, version, c)) = self.pick(queue, charts, s) else { return };
+            let entry = self.ops[op as usize].clone();
+            if tx.send(ToShadow::Judge { op, version, entry }).is_err() {
+                s.to_shadow = None;
+                return;
+            }
+            s.in_flight.push(InFlight { op, version, at: s.commits.len(), charts: c });
+        }
+    }
+
+    /// A judgement of `op` at `version` that still holds, if there is one. While the shadow's
+    /// judgement of it is pending and nothing has overturned it yet, the master judges other
+    /// operations from `pick` itself rather than wait idle.
+    #[allow(clippy::too_many_arguments)]
+    fn judgement(
+        &mut self,
+        op: u32,
+        version: u32,
+        charts: (ChartId, ChartId),
+        queue: &mut Queue,
+        s: &mut Pending,
+        solver: &mut dyn LocalSolver,
+        from_shadow: &Receiver<Judged>,
+    ) -> Option<Judged> {
+        loop {
+            if let Some(i) = s.done.iter().position(|j| (j.op, j.version) == (op, version)) {
+                let j = s.done.swap_remove(i);
+                let holds = untouched(j.charts, &s.commits[j.at..])
+                    && j.checks.iter().all(|&(out, inn)| {
+                        self.over_budget(j.energy_num, out, inn)
+                            == self.over_budget(self.energy_num, out, inn)
+                    });
+                return holds.then_some(j);
+            }
+            let f = s.in_flight.iter().find(|f| (f.op, f.version) == (op, version))?;
+            if !untouched(f.charts, &s.commits[f.at..]) {
+                return None;
+            }
+            if let Ok(j) = from_shadow.try_recv() {
+                s.receive(j);
+                self.dispatch(queue, charts, s);
+                continue;
+            }
+            if let Some((other, v, c)) = self.pick(queue, charts, s) {
+                let j = self.judge(other, v, c, s.commits.len(), solver);
+                s.judged += 1;
+                s.done.push(j);
+                continue;
+            }
+            let t = Instant::now();
+            let received = from_shadow.recv();
+            self.report.timings.wait_ms += t.elapsed().as_secs_f64() * 1e3;
+            match received {
+                Ok(j) => s.receive(j),
+                Err(_) => return None,
+            }
+        }
+    }
+
+    /// Judges `op` on this engine without keeping it.
+    fn judge(
+        &mut self,
+        op: u32,
+        version: u32,
+        charts: (ChartId, ChartId),
+        at: usize,
+        solver: &mut dyn LocalSolver,
+    ) -> Judged {
+        let report = std::mem::take(&mut self.report);
+        self.record_checks = true;
+        self.global_checks.clear();
+        let energy_num = self.energy_num;
+        let outcome = self.attempt_speculative(op, solver);
+        self.record_checks = false;
+        Judged {
+            op,
+            version,
+            at,
+            charts,
+            energy_num,
+            checks: std::mem::take(&mut self.global_checks),
+            outcome,
+            report: std::mem::replace(&mut self.report, report),
+        }
+    }
+}
+
+/// The master's bookkeeping of the judgements.
+struct Pending {
+    /// The charts of every commit so far, in order (the shadow has replayed a prefix).
+    commits: Vec<(ChartId, ChartId)>,
+    in_flight: Vec<InFlight>,
+    done: Vec<Judged>,
+    /// `None` once the shadow is gone.
+    to_shadow: Option<Sender<ToShadow>>,
+    /// Judgements made ahead so far.
+    judged: u64,
+}
+
+impl Pending {
+    fn receive(&mut self, j: Judged) {
+        self.judged += 1;
+        self.in_flight.retain(|f| (f.op, f.version) != (j.op, j.version));
+        self.done.push(j);
+    }
+}
+
+/// The shadow's side: replays the master's commits and judges what it is asked to, in order.
+fn shadow_loop(
+    shadow: &mut Engine<'_>,
+    solver: &mut dyn LocalSolver,
+    rx: Receiver<ToShadow>,
+    tx: Sender<Judged>,
+) {
+    let mut at = 0;
+    for msg in rx {
+        match msg {
+            ToShadow::Replay(r) => {
+                shadow.apply_record(&r);
+                at += 1;
+            }
+            ToShadow::Judge { op, version, entry } => {
+                let o = op as usize;
+                if shadow.ops.len() <= o {
+                    shadow.ops.resize(o + 1, entry.clone());
+                }
+                shadow.ops[o] = entry;
+                let charts = shadow.op_charts(op);
+                let judged = shadow.judge(op, version, charts, at, solver);
+                if tx.send(judged).is_err() {
+                    return;
+                }
+            }
+        }
+    }
+}
