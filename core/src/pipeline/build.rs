@@ -517,21 +517,32 @@ pub fn build(
     // Gutters come after smoothing, so they carry the corrected colours.
     let ropts = ResampleOptions { dilate: 0, push_pull: false, work_dir: work_dir.clone() };
     let mut res = resample_sheets(&refs, &mappings, &packed.sheet_sizes, &ropts)?;
-    // Face coverage of every output sheet: what the gutters grow from.
+    // Face coverage of every output sheet: what the gutters grow from. A texel is also brought
+    // to the common exposure, with the gain of the photo of the face that covers it first (so
+    // each texel once), before the rings, which carry the difference between a texel and its
+    // source.
     let mut covs: Vec<Coverage> = res.sheets.iter().map(Coverage::for_store).collect();
+    let mut to_exposure = ExposureLuts::new(&gains);
     for (f, m) in mappings.iter().enumerate() {
         let sh = packed.face_sheet[f] as usize;
-        let (w, h) = (res.sheets[sh].width(), res.sheets[sh].height());
-        rasterize_triangle(m.dst, h, PixelRect::new(0, 0, w, h), |i, j, _| covs[sh].set(i, j));
-    }
-    // Every texel of a face, taken from its photo, to the common exposure; before the rings,
-    // which carry the difference between a texel and its source.
-    if !gains.is_identity() {
-        let face_camera = |f: usize| match sub.face_sub[f] {
+        let store = &mut res.sheets[sh];
+        let (w, h) = (store.width(), store.height());
+        // `None`: the fill, whose colour is corrected already.
+        let cam = match sub.face_sub[f] {
             NONE => None,
-            s => Some(sub_camera[s as usize]),
+            s if !gains.is_identity() => Some(sub_camera[s as usize]),
+            _ => None,
         };
-        apply_gains(&gains, &mappings, &face_camera, &mut res.sheets);
+        let cov = &mut covs[sh];
+        rasterize_triangle(m.dst, h, PixelRect::new(0, 0, w, h), |i, j, _| {
+            if cov.get(i, j) {
+                return;
+            }
+            cov.set(i, j);
+            if let Some(cam) = cam {
+                to_exposure.apply(store, i, j, cam as usize);
+            }
+        });
     }
     // Every sub-chart gets its gutter ring from its photo at its pyramid level (see
     // `photo_ring`), so that bilinear filtering at its border reads the photo.
@@ -856,40 +867,31 @@ fn gaussian_levels(
     Ok(out)
 }
 
-/// Brings every face's texels on the output `sheets` to the common exposure: the gain of the
-/// face's photo (`face_camera`; `None` = the fill, already corrected), each texel once.
-fn apply_gains(
-    gains: &Exposure,
-    mappings: &[FaceMapping],
-    face_camera: &dyn Fn(usize) -> Option<u32>,
-    sheets: &mut [TileStore],
-) {
-    let mut done: Vec<Coverage> = sheets.iter().map(Coverage::for_store).collect();
-    let mut luts: Vec<Option<[[u8; 256]; 3]>> = vec![None; gains.gains.len()];
-    for (f, m) in mappings.iter().enumerate() {
-        let Some(cam) = face_camera(f) else { continue };
-        let sh = m.dst_sheet as usize;
-        let store = &mut sheets[sh];
-        let (w, h) = (store.width(), store.height());
+/// Brings texels to the common exposure: an 8-bit lookup table per photo, made when first
+/// needed, or the float path for other formats.
+struct ExposureLuts<'a> {
+    gains: &'a Exposure,
+    luts: Vec<Option<[[u8; 256]; 3]>>,
+}
+
+impl<'a> ExposureLuts<'a> {
+    fn new(gains: &'a Exposure) -> Self {
+        Self { gains, luts: vec![None; gains.gains.len()] }
+    }
+
+    /// Texel `(x, y)` of `store`, taken from photo `cam`, to the common exposure.
+    fn apply(&mut self, store: &mut TileStore, x: u32, y: u32, cam: usize) {
         let format = store.format();
-        let rgb8 = format.sample == SampleType::U8 && format.channels >= 3;
-        let lut = luts[cam as usize].get_or_insert_with(|| gains.lut8(cam as usize));
-        let cov = &mut done[sh];
-        rasterize_triangle(m.dst, h, PixelRect::new(0, 0, w, h), |i, j, _| {
-            if cov.get(i, j) {
-                return;
+        if format.sample == SampleType::U8 && format.channels >= 3 {
+            let lut = self.luts[cam].get_or_insert_with(|| self.gains.lut8(cam));
+            let px = store.pixel_mut(x, y);
+            for c in 0..3 {
+                px[c] = lut[c][usize::from(px[c])];
             }
-            cov.set(i, j);
-            if rgb8 {
-                let px = store.pixel_mut(i, j);
-                for c in 0..3 {
-                    px[c] = lut[c][usize::from(px[c])];
-                }
-            } else {
-                let v = smoothing::read_rgb(store, i, j);
-                smoothing::write_rgb(store, i, j, gains.correct(cam as usize, v, format.sample));
-            }
-        });
+        } else {
+            let v = smoothing::read_rgb(store, x, y);
+            smoothing::write_rgb(store, x, y, self.gains.correct(cam, v, format.sample));
+        }
     }
 }
 
