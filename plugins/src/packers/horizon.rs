@@ -3,6 +3,8 @@
 //! largest known free gap below it). Charts go largest first to the position that keeps the upper
 //! horizon lowest, or into a gap where they waste the least area; every allowed quarter turn is
 //! tried; with fewer than 100 charts seeded shuffled orders are tried too and the densest kept.
+//! Beside the paper's lowest-horizon rule, passes that also weigh the area a chart strands under
+//! itself (see [`Fit`]) run in parallel, and the densest packing of all passes is kept.
 //!
 //! Speed: the column profiles of every allowed turn are computed once per item, before any trial;
 //! a trial only reads them. The scan over positions stops early on the column that last proved a
@@ -36,13 +38,43 @@ pub struct HorizonPacker {
     /// packing kept: on an atlas of about one sheet the square start strands charts in the
     /// strip its growth steps leave (venus: 15.68 M texels against 15.37 M from the full width).
     pub square: bool,
+    /// Also run the passes of the [`Fit::Area`] rules and keep the densest packing of all.
+    pub area_fits: bool,
 }
 
 impl Default for HorizonPacker {
     fn default() -> Self {
-        Self { seed: 0, shuffle_below: 100, max_shuffles: 100, square: true }
+        Self { seed: 0, shuffle_below: 100, max_shuffles: 100, square: true, area_fits: true }
     }
 }
+
+/// One greedy pass: how sheets start (see `HorizonPacker::square`) and how positions are chosen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Pass {
+    square: bool,
+    fit: Fit,
+}
+
+/// How a position on the upper horizon is chosen.
+///
+/// The paper's rule keeps the top of the chart lowest. It ignores the free cells a chart leaves
+/// between the horizon and its own lower outline, which the one gap per column of the inner
+/// horizon can rarely use again. `Area` minimizes `top · width · num / den + stranded cells`, the
+/// area the chart takes from the sheet up to its top plus what it strands: the weight trades a
+/// low top against a snug fit. No single rule wins on every atlas, so passes with each run and
+/// the densest packing is kept. Bounding-box cells of venus's 340 merged charts, full-width
+/// start: lowest top 15.38 M, weight ½ 14.88 M, weight 1 14.90 M (weight 2, 15.13 M, never won
+/// on seven atlases and is left out); meshroom's 96 charts: 1.98 M with weight 1 from the square
+/// start against 2.12 M with the lowest top.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Fit {
+    LowestTop,
+    Area { num: u64, den: u64 },
+}
+
+/// The fit rules of the passes: the paper's first, so that it wins ties.
+const AREA_FITS: [Fit; 3] =
+    [Fit::LowestTop, Fit::Area { num: 1, den: 2 }, Fit::Area { num: 1, den: 1 }];
 
 /// Packing density assumed when sizing a sheet's first width (see `square`).
 const ASSUMED_DENSITY: f64 = 0.7;
@@ -109,6 +141,10 @@ struct Sheet {
     /// The lowest horizon and the tallest gap, for rejecting hopeless items at once.
     min_horizon: u32,
     max_gap: u32,
+    /// `prefix[x]` = sum of `horizon[..x]`, for the stranded area of [`Fit::Area`] in O(1).
+    prefix: Vec<u64>,
+    /// `lo_prefix[x]` = sum of `gap_lo[..x]`, for the waste of gap placements in O(1).
+    lo_prefix: Vec<u64>,
 }
 
 impl Sheet {
@@ -122,6 +158,8 @@ impl Sheet {
             gap_hi: vec![0; n],
             min_horizon: 0,
             max_gap: 0,
+            prefix: vec![0; n + 1],
+            lo_prefix: vec![0; n + 1],
         }
     }
 
@@ -141,9 +179,78 @@ impl Sheet {
         true
     }
 
+    /// The best upper-horizon position `(key, x, y)` of profile `p` under rule `fit` (the lower
+    /// the key, the better), if any fits under `height`. Ties go to the smallest `x`.
+    fn best_outer(&self, p: &Profile, height: u32, fit: Fit) -> Option<(u64, u32, u32)> {
+        match fit {
+            Fit::LowestTop => self.lowest_top(p, height).map(|(top, x, y)| (u64::from(top), x, y)),
+            Fit::Area { num, den } => self.least_area(p, height, num, den),
+        }
+    }
+
+    /// The position of [`Fit::Area`]: the least `top · width · num + stranded · den`, where
+    /// `stranded` counts the free cells between the horizon and the chart's lower outline.
+    ///
+    /// With the chart's `n` columns resting at height `y`, `stranded = n·y + Σ bottom − Σ horizon`
+    /// over its columns, so the key grows with `y` and the scan can stop a position as soon as
+    /// the `y` found so far already gives a key no better than the best (as `lowest_top` does
+    /// with the top). The horizon sum over the columns is a window of the sheet's prefix sums
+    /// when the chart has no empty column, as nearly every chart has.
+    fn least_area(&self, p: &Profile, height: u32, num: u64, den: u64) -> Option<(u64, u32, u32)> {
+        if p.width > self.width_limit || p.height > height - self.min_horizon.min(height) {
+            return None;
+        }
+        if p.cols.is_empty() {
+            return Some((u64::from(p.height) * u64::from(p.width) * num, 0, 0));
+        }
+        let h = &self.horizon;
+        let n = p.cols.len() as u64;
+        let bottoms: u64 = p.cols.iter().map(|&(_, b, _)| u64::from(b)).sum();
+        let contiguous = n == u64::from(p.width);
+        let slope = u64::from(p.width) * num + n * den;
+        let mut best: Option<(u64, u32, u32)> = None;
+        // As in `lowest_top`: the column that last raised the key past the best.
+        let mut witness = 0usize;
+        'x: for x in 0..=(self.width_limit - p.width) {
+            let under = if contiguous {
+                self.prefix[(x + p.width) as usize] - self.prefix[x as usize]
+            } else {
+                p.cols.iter().map(|&(dx, _, _)| u64::from(h[(x + dx) as usize])).sum()
+            };
+            // The key at rest height y; `under ≤ n·y + bottoms` for the true y, so no underflow.
+            let key = |y: u32| {
+                (u64::from(y) * slope
+                    + u64::from(p.height) * u64::from(p.width) * num
+                    + bottoms * den)
+                    .saturating_sub(under * den)
+            };
+            let beaten = |y: u32| best.is_some_and(|(k, _, _)| key(y) >= k);
+            let (dx, b, _) = p.cols[witness];
+            let mut y = h[(x + dx) as usize].saturating_sub(b);
+            if beaten(y) {
+                continue;
+            }
+            for (i, &(dx, b, _)) in p.cols.iter().enumerate() {
+                let v = h[(x + dx) as usize].saturating_sub(b);
+                if v > y {
+                    y = v;
+                    if beaten(y) {
+                        witness = i;
+                        continue 'x;
+                    }
+                }
+            }
+            if y + p.height > height {
+                continue;
+            }
+            best = Some((key(y), x, y));
+        }
+        best
+    }
+
     /// The lowest upper-horizon position `(top, x, y)` of profile `p`, if any fits under
     /// `height`. Ties go to the smallest `x`.
-    fn best_outer(&self, p: &Profile, height: u32) -> Option<(u32, u32, u32)> {
+    fn lowest_top(&self, p: &Profile, height: u32) -> Option<(u32, u32, u32)> {
         if p.width > self.width_limit || p.height > height - self.min_horizon.min(height) {
             return None;
         }
@@ -190,36 +297,87 @@ impl Sheet {
             return None;
         }
         let (lo, hi) = (&self.gap_lo, &self.gap_hi);
+        let n = p.cols.len() as u64;
+        let bottoms: u64 = p.cols.iter().map(|&(_, b, _)| u64::from(b)).sum();
+        let contiguous = n == u64::from(p.width);
+        // A sheet column whose gap is lower than every column of the chart needs rules out every
+        // position covering it: the scan jumps past it (most columns have no gap at all).
+        let least_need = p.cols.iter().map(|&(_, b, t)| t - b).min().unwrap_or(0);
         let mut best: Option<(u64, u32, u32)> = None;
         let mut witness = 0usize;
-        'x: for x in 0..=(self.width_limit - p.width) {
+        let (mut floor_witness, mut ceiling_witness) = (0usize, 0usize);
+        let last = self.width_limit - p.width;
+        let mut x = 0;
+        'x: while x <= last {
             let fits = |&(dx, b, t): &(u32, u32, u32)| {
                 let c = (x + dx) as usize;
                 hi[c] - lo[c] >= t - b
             };
+            let fail = |x: u32, dx: u32| {
+                let c = x + dx;
+                if contiguous && hi[c as usize] - lo[c as usize] < least_need {
+                    c + 1
+                } else {
+                    x + 1
+                }
+            };
             if !fits(&p.cols[witness]) {
+                x = fail(x, p.cols[witness].0);
+                continue;
+            }
+            // The waste at rest height y is `n·y + Σ bottom − Σ gap floor`: it grows with y, so
+            // a position stops as soon as the y found so far wastes no less than the best.
+            let floors = if contiguous {
+                self.lo_prefix[(x + p.width) as usize] - self.lo_prefix[x as usize]
+            } else {
+                p.cols.iter().map(|&(dx, _, _)| u64::from(lo[(x + dx) as usize])).sum()
+            };
+            let waste = |y: u32| (n * u64::from(y) + bottoms).saturating_sub(floors);
+            let beaten = |y: u32| best.is_some_and(|(w, _, _)| waste(y) >= w);
+            // One sweep finds the rest height (the highest gap floor under the chart) and the
+            // ceiling it must stay under (the lowest gap top over it), and stops once they cross.
+            // The two columns that crossed last time (the floor's and the ceiling's) are tried
+            // first: they usually cross again at the next position.
+            let (f, k) = (p.cols[floor_witness], p.cols[ceiling_witness]);
+            let (cf, ck) = ((x + f.0) as usize, (x + k.0) as usize);
+            if hi[ck] < k.2 || lo[cf].saturating_sub(f.1) > hi[ck] - k.2 {
+                x += 1;
                 continue;
             }
             let mut y = 0;
-            for (i, col) in p.cols.iter().enumerate() {
-                if !fits(col) {
-                    witness = i;
-                    continue 'x;
-                }
-                y = y.max(lo[(x + col.0) as usize].saturating_sub(col.1));
-            }
-            let mut waste = 0u64;
+            let mut cap = u32::MAX;
+            let (mut yi, mut ci) = (0, 0);
             for (i, &(dx, b, t)) in p.cols.iter().enumerate() {
                 let c = (x + dx) as usize;
-                if y + t > hi[c] {
+                let (l, h) = (lo[c], hi[c]);
+                if h - l < t - b || h < t {
                     witness = i;
+                    x = fail(x, dx);
                     continue 'x;
                 }
-                waste += u64::from(y + b - lo[c]);
+                if h - t < cap {
+                    cap = h - t;
+                    ci = i;
+                }
+                let v = l.saturating_sub(b);
+                if v > y {
+                    y = v;
+                    yi = i;
+                    if beaten(y) {
+                        x += 1;
+                        continue 'x;
+                    }
+                }
+                if y > cap {
+                    (floor_witness, ceiling_witness) = (yi, ci);
+                    x += 1;
+                    continue 'x;
+                }
             }
-            if best.is_none_or(|(w, _, _)| waste < w) {
-                best = Some((waste, x, y));
+            if !beaten(y) {
+                best = Some((waste(y), x, y));
             }
+            x += 1;
         }
         best
     }
@@ -251,11 +409,20 @@ impl Sheet {
         let used = &self.horizon[..self.width_limit as usize];
         self.min_horizon = used.iter().copied().min().unwrap_or(0);
         self.max_gap = self.gap_lo.iter().zip(&self.gap_hi).map(|(l, h)| h - l).max().unwrap_or(0);
+        for (prefix, values) in
+            [(&mut self.prefix, &self.horizon), (&mut self.lo_prefix, &self.gap_lo)]
+        {
+            let mut sum = 0u64;
+            for (p, &h) in prefix[1..].iter_mut().zip(values) {
+                sum += u64::from(h);
+                *p = sum;
+            }
+        }
     }
 
     /// Places the item on this sheet if it fits: a gap first (it costs no height), else the lowest
     /// upper-horizon position over all turns.
-    fn try_place(&mut self, profiles: &[Profile], height: u32) -> Option<(u8, u32, u32)> {
+    fn try_place(&mut self, profiles: &[Profile], height: u32, fit: Fit) -> Option<(u8, u32, u32)> {
         let mut inner: Option<(u64, u32, u32, usize)> = None;
         for (i, p) in profiles.iter().enumerate() {
             if let Some((w, x, y)) = self.best_inner(p)
@@ -267,12 +434,16 @@ impl Sheet {
         let choice = if let Some((_, x, y, i)) = inner {
             Some((i, x, y))
         } else {
+            // Within a turn the fit rule picks the position; across turns the lowest top wins
+            // (the first turn of equals): the area keys of turns of different widths do not
+            // compare (venus, full width: 15.70 M and 16.68 M cells when they are compared,
+            // against 14.88 M and 14.90 M).
             let mut outer: Option<(u32, u32, u32, usize)> = None;
             for (i, p) in profiles.iter().enumerate() {
-                if let Some((top, x, y)) = self.best_outer(p, height)
-                    && outer.is_none_or(|b| top < b.0)
+                if let Some((_, x, y)) = self.best_outer(p, height, fit)
+                    && outer.is_none_or(|b| y + p.height < b.0)
                 {
-                    outer = Some((top, x, y, i));
+                    outer = Some((y + p.height, x, y, i));
                 }
             }
             outer.map(|(_, x, y, i)| (i, x, y))
@@ -291,6 +462,7 @@ impl HorizonPacker {
             shuffle_below: get_u64(params, &info, "shuffle-below", 0..=100_000)? as usize,
             max_shuffles: get_u64(params, &info, "max-shuffles", 0..=100_000)? as usize,
             square: get_bool(params, &info, "square")?,
+            area_fits: get_bool(params, &info, "area-fits")?,
         })
     }
 
@@ -298,7 +470,7 @@ impl HorizonPacker {
     /// of sheets used.
     fn trial(
         &self,
-        square: bool,
+        pass: Pass,
         prepared: &[Vec<Profile>],
         areas: &[u64],
         order: &[u32],
@@ -310,7 +482,7 @@ impl HorizonPacker {
         for &item in order {
             let profs = &prepared[item as usize];
             let (s, (turn, x, y)) =
-                self.place_item(square, &mut sheets, profs, remaining, max_sheet).ok_or_else(
+                self.place_item(pass, &mut sheets, profs, remaining, max_sheet).ok_or_else(
                     || PackerError::Failed(format!("item {item} does not fit an empty sheet")),
                 )?;
             placements[item as usize] = Placement { sheet: s as u32, quarter_turns: turn, x, y };
@@ -324,7 +496,7 @@ impl HorizonPacker {
     /// the item fits no empty sheet, which the caller has ruled out.
     fn place_item(
         &self,
-        square: bool,
+        Pass { square, fit }: Pass,
         sheets: &mut Vec<Sheet>,
         profs: &[Profile],
         remaining: u64,
@@ -333,7 +505,7 @@ impl HorizonPacker {
         let n = sheets.len();
         for (s, sheet) in sheets.iter_mut().enumerate() {
             loop {
-                if let Some(p) = sheet.try_place(profs, sheet.height_limit) {
+                if let Some(p) = sheet.try_place(profs, sheet.height_limit, fit) {
                     return Some((s, p));
                 }
                 if s + 1 < n || !sheet.grow(sw, sh) {
@@ -355,7 +527,7 @@ impl HorizonPacker {
         };
         let mut sheet = Sheet::new(sw, w0, h0);
         let placed = loop {
-            if let Some(p) = sheet.try_place(profs, sheet.height_limit) {
+            if let Some(p) = sheet.try_place(profs, sheet.height_limit, fit) {
                 break Some(p);
             }
             if !sheet.grow(sw, sh) {
@@ -389,19 +561,24 @@ impl Packer for HorizonPacker {
         let score = |placements: &[Placement], sheets: usize| {
             (sheets, used_area(items, placements, &order, sheets))
         };
-        // The square start and the full-width start, side by side; the first of equals wins, so
-        // the choice is a pure function of the input.
+        // The square start and the full-width start, each with every fit rule, side by side; the
+        // first of equals wins, so the choice is a pure function of the input.
         let starts: &[bool] = if self.square { &[true, false] } else { &[false] };
-        let passes: Vec<(bool, Vec<Placement>, usize)> = starts
+        let fits: &[Fit] = if self.area_fits { &AREA_FITS } else { &AREA_FITS[..1] };
+        let plan: Vec<Pass> = starts
+            .iter()
+            .flat_map(|&square| fits.iter().map(move |&fit| Pass { square, fit }))
+            .collect();
+        let passes: Vec<(Pass, Vec<Placement>, usize)> = plan
             .par_iter()
-            .map(|&square| {
+            .map(|&pass| {
                 let mut placements = vec![blank; n];
                 let sheets =
-                    self.trial(square, &prepared, &areas, &order, max_sheet, &mut placements)?;
-                Ok((square, placements, sheets))
+                    self.trial(pass, &prepared, &areas, &order, max_sheet, &mut placements)?;
+                Ok((pass, placements, sheets))
             })
             .collect::<Result<_, PackerError>>()?;
-        let (square, mut best, mut best_sheets) = passes
+        let (pass, mut best, mut best_sheets) = passes
             .into_iter()
             .reduce(|a, b| if score(&b.1, b.2) < score(&a.1, a.2) { b } else { a })
             .ok_or_else(|| PackerError::Failed("no packing pass ran".into()))?;
@@ -410,18 +587,32 @@ impl Packer for HorizonPacker {
             let big = order.iter().filter(|&&i| 2 * areas[i as usize] >= largest).count();
             let k = order.len().min(5).max(big);
             let tries = (5 * k).min(self.max_shuffles);
-            let mut best_score = score(&best, best_sheets);
+            // Cumulative shuffles of the first K, as the reference does, but seeded; trial `t`
+            // uses fit rule `t mod fits`, so the shuffles explore every rule. The trials run in
+            // parallel and the first of the densest wins, a pure function of the input.
             let mut rng = SplitMix64::new(self.seed);
             let mut trial = order.clone();
-            let mut cand = vec![blank; n];
-            for _ in 0..tries {
-                // Cumulative shuffles of the first K, as the reference does, but seeded.
-                rng.shuffle(&mut trial[..k]);
-                let sheets = self.trial(square, &prepared, &areas, &trial, max_sheet, &mut cand)?;
-                let s = score(&cand, sheets);
+            let orders: Vec<Vec<u32>> = (0..tries)
+                .map(|_| {
+                    rng.shuffle(&mut trial[..k]);
+                    trial.clone()
+                })
+                .collect();
+            let tried = orders
+                .par_iter()
+                .enumerate()
+                .map(|(t, o)| {
+                    let pass = Pass { square: pass.square, fit: fits[t % fits.len()] };
+                    let mut cand = vec![blank; n];
+                    let sheets = self.trial(pass, &prepared, &areas, o, max_sheet, &mut cand)?;
+                    Ok((score(&cand, sheets), cand, sheets))
+                })
+                .collect::<Result<Vec<_>, PackerError>>()?;
+            let mut best_score = score(&best, best_sheets);
+            for (s, cand, sheets) in tried {
                 if s < best_score {
                     best_score = s;
-                    best.copy_from_slice(&cand);
+                    best = cand;
                     best_sheets = sheets;
                 }
             }
@@ -458,6 +649,12 @@ fn info() -> PluginInfo {
                 default: ParamValue::Bool(true),
                 help: "start sheets about as wide as a square for the remaining items needs",
             },
+            ParamInfo {
+                name: "area-fits",
+                default: ParamValue::Bool(true),
+                help: "also run passes that weigh the area a chart strands below itself, and keep \
+                       the densest packing (false: the paper's lowest-horizon rule alone)",
+            },
         ],
     }
 }
@@ -465,4 +662,59 @@ fn info() -> PluginInfo {
 /// Registers `horizon`.
 pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
     registry.register_packer(info(), |params| Ok(Box::new(HorizonPacker::from_params(params)?)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use scanatlas_core::plugin::Footprint;
+
+    /// A sheet of the given upper horizon, no gaps.
+    fn sheet(horizon: &[u32]) -> Sheet {
+        let n = horizon.len() as u32;
+        let mut s = Sheet::new(n, n, 100);
+        // Placing one-cell-wide columns of the given heights builds the horizon and its sums.
+        for (x, &h) in horizon.iter().enumerate() {
+            if h > 0 {
+                let col =
+                    Profile { turn: 0, width: 1, height: h, cols: vec![(0, 0, h)], tallest: h };
+                s.place(&col, x as u32, 0);
+            }
+        }
+        s
+    }
+
+    /// A flat bar three columns wide and one high.
+    fn bar() -> Profile {
+        let item = PackItem { footprint: Footprint::filled(3, 1).unwrap(), rotations: 1 };
+        profiles(&item).remove(0)
+    }
+
+    #[test]
+    fn the_area_fit_trades_a_low_top_for_a_snug_bed() {
+        // Columns 0..3 are level at 2; columns 3..6 dip to 0, 1, 0. The lowest top (2) is in
+        // the dip, stranding two cells; the level bed has top 3 and strands none.
+        let s = sheet(&[2, 2, 2, 0, 1, 0]);
+        let p = bar();
+        assert_eq!(s.best_outer(&p, 100, Fit::LowestTop), Some((2, 3, 1)));
+        // Key top·width·num + stranded·den: the dip 2·3 + 2·2 = 10, the bed 3·3 = 9.
+        assert_eq!(s.best_outer(&p, 100, Fit::Area { num: 1, den: 2 }), Some((9, 0, 2)));
+        // With equal weights the dip costs 2·3 + 2 = 8 against 9: the low top wins again.
+        assert_eq!(s.best_outer(&p, 100, Fit::Area { num: 1, den: 1 }), Some((8, 3, 1)));
+    }
+
+    #[test]
+    fn a_gap_placement_skips_columns_too_low_for_the_chart() {
+        // Everything is filled up to row 9 but for a gap 4..9 in columns 4..7; the other
+        // columns have none.
+        let mut s = Sheet::new(8, 8, 100);
+        s.horizon = vec![9; 8];
+        s.gap_lo = vec![0, 0, 0, 0, 4, 4, 4, 0];
+        s.gap_hi = vec![0, 0, 0, 0, 9, 9, 9, 0];
+        // Placing nothing refreshes the summaries and the prefix sums.
+        s.place(&Profile { turn: 0, width: 1, height: 0, cols: vec![], tallest: 0 }, 7, 9);
+        let p = bar();
+        // Only columns 4..7 have a gap tall enough: the bar rests on their floor at 4.
+        assert_eq!(s.best_inner(&p), Some((0, 4, 4)));
+    }
 }
