@@ -286,6 +286,14 @@ pub struct DefragArgs {
     /// fused starting layout, no separation of the overlapping triangles a solve leaves.
     #[arg(long)]
     pub no_solve_repair: bool,
+    /// Re-optimize both sides of every seam, as the paper does (by default an inter-chart merge
+    /// is first tried with the staying chart held still, so its texels stay verbatim).
+    #[arg(long)]
+    pub no_one_sided: bool,
+    /// A merge holding the staying chart still may spend at most this many times its seam's fair
+    /// share of g; beyond, both sides are re-optimized (0: no limit) [default: 2].
+    #[arg(long)]
+    pub one_sided_ration: Option<f64>,
     /// Leave texel clashes (two faces of a chart on a texel centre they did not share in the
     /// input) as they are (by default free vertices move by up to two texels to separate them).
     #[arg(long)]

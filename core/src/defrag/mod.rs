@@ -89,6 +89,16 @@ pub struct MergeOptions {
     /// The face count at which a cluster of charts stops growing (0: one queue for the whole
     /// atlas, the serial baseline). Clusters come from the data alone, never from the thread count.
     pub cluster_faces: u32,
+    /// Try every inter-chart merge first with the staying chart held still: the seam is fused
+    /// where that chart has it and only the moving chart's side is re-optimized; if any check
+    /// fails, the merge is tried again as the paper does (both sides, seam at the mean). The
+    /// moving chart's texels are resampled after its rigid move anyway, so a merge that passes
+    /// this way keeps every texel of the staying chart copyable verbatim.
+    pub one_sided: bool,
+    /// A merge with the staying chart held still may raise the atlas energy by at most this many
+    /// times its seam's fair share of the budget g (see `Engine::over_one_sided_ration`); beyond,
+    /// it is tried on both sides (0: no limit).
+    pub one_sided_ration: f64,
 }
 
 impl Default for MergeOptions {
@@ -105,6 +115,8 @@ impl Default for MergeOptions {
             solve_repair: true,
             max_chart_extent: 0.0,
             cluster_faces: DEFAULT_CLUSTER_FACES,
+            one_sided: true,
+            one_sided_ration: 2.0,
         }
     }
 }
@@ -128,6 +140,9 @@ impl MergeOptions {
         }
         if !ok(self.time_limit) {
             return bad("time-limit", "expected a finite number of seconds ≥ 0");
+        }
+        if !ok(self.one_sided_ration) {
+            return bad("one-sided-ration", "expected a finite number ≥ 0");
         }
         if !ok(self.max_chart_extent) {
             return bad("max-sheet-size", "expected a finite chart extent ≥ 0");
@@ -328,6 +343,9 @@ pub struct MergeReport {
     pub uv_border_after: f64,
     /// Faces in the optimization areas of accepted merges (counted once per merge).
     pub optimized_faces: u64,
+    /// Accepted inter-chart merges that held the staying chart still (see
+    /// `MergeOptions::one_sided`).
+    pub one_sided_merges: u64,
     /// The largest optimization area attempted, in faces.
     pub max_patch_faces: u64,
     /// Charts of zero-area faces joined to neighbouring charts after merging.
@@ -379,6 +397,7 @@ impl MergeReport {
             self.max_accepted_local_energy.max(o.max_accepted_local_energy);
         self.solver_iterations += o.solver_iterations;
         self.optimized_faces += o.optimized_faces;
+        self.one_sided_merges += o.one_sided_merges;
         self.max_patch_faces = self.max_patch_faces.max(o.max_patch_faces);
         if o.stop == StopReason::TimeLimit {
             self.stop = StopReason::TimeLimit;

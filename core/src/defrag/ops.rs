@@ -82,6 +82,12 @@ pub(crate) fn dist(p: [f64; 2], q: [f64; 2]) -> f64 {
 }
 
 impl Engine<'_> {
+    /// Whether `op` joins two different charts now.
+    pub fn op_is_inter(&self, op: u32) -> bool {
+        let (x, y) = self.op_charts(op);
+        x != y
+    }
+
     /// The current charts of an operation's sides (from its first linked pair: charts only ever
     /// merge whole, so every pair of an operation separates the same two charts).
     pub fn op_charts(&self, op: u32) -> (ChartId, ChartId) {

@@ -65,6 +65,10 @@ impl Engine<'_> {
                     if w == v {
                         continue;
                     }
+                    // A held chart keeps every vertex where it is: only the other side moves.
+                    if self.hold.is_some_and(|a| self.t.uv_chart[w as usize] == a) {
+                        continue;
+                    }
                     let rest = r - dist(pv, self.t.uv_pos[w as usize]);
                     let cur = self.vert_budget[w as usize];
                     if rest >= 0.0 && (cur.is_nan() || rest > cur) {
@@ -78,6 +82,14 @@ impl Engine<'_> {
                 c = self.fan_next[c as usize];
             }
         }
+        if self.hold.is_some() {
+            // The fused seam stays where the held chart has it: its vertices only seed the area.
+            for i in 0..self.seeds.len() {
+                self.vert_budget[self.seeds[i].0 as usize] = f64::NAN;
+            }
+            let budget = &self.vert_budget;
+            self.free.retain(|&v| !budget[v as usize].is_nan());
+        }
         self.free.sort_unstable();
         self.opt_faces.clear();
         for i in 0..self.free.len() {
@@ -89,6 +101,21 @@ impl Engine<'_> {
                     self.opt_faces.push(f);
                 }
                 c = self.fan_next[c as usize];
+            }
+        }
+        if let Some(a) = self.hold {
+            // The moving chart's faces on the seam changed shape when the seam was fused, even
+            // those with no free vertex: they are judged and booked with the area too.
+            for i in 0..self.seeds.len() {
+                let mut c = self.fan_head[self.seeds[i].0 as usize];
+                while c != NONE {
+                    let f = c / 3;
+                    if self.t.face_chart[f as usize] != a && !self.face_opt[f as usize] {
+                        self.face_opt[f as usize] = true;
+                        self.opt_faces.push(f);
+                    }
+                    c = self.fan_next[c as usize];
+                }
             }
         }
         self.opt_faces.sort_unstable();

@@ -110,6 +110,8 @@ pub(crate) struct Engine<'t> {
     /// speculative attempt can be judged again against another atlas sum (see `speculate`).
     pub record_checks: bool,
     pub global_checks: Vec<(f64, f64)>,
+    /// The chart held still by the attempt in progress (see `MergeOptions::one_sided`).
+    pub hold: Option<ChartId>,
 }
 
 /// The state of an engine that a cluster's fork copies (everything but scratch and logs).
@@ -375,6 +377,7 @@ impl<'t> Engine<'t> {
             base_fixed: Vec::new(),
             record_checks: false,
             global_checks: Vec::new(),
+            hold: None,
             t,
         }
     }

@@ -162,6 +162,44 @@ fn a_rejected_merge_restores_every_byte() {
     assert_eq!(r.accepted, 1, "{r:?}");
 }
 
+/// The corner UVs of the faces of the half with `i < n / 2` (the first face of each quad row
+/// pair), as written back.
+fn left_half_uvs(m: &Model, n: u32) -> Vec<[f64; 2]> {
+    let mut out = Vec::new();
+    for (f, face) in m.faces.iter().enumerate() {
+        let i = (f as u32 / 2) % n;
+        if i < n / 2 {
+            out.extend(face.uv.expect("textured").map(|u| m.uvs[u.idx()]));
+        }
+    }
+    out
+}
+
+#[test]
+fn holding_the_staying_chart_keeps_its_uvs_bit_for_bit() {
+    // The right half is stretched along the seam, so the seam's two sides do not match and
+    // fusing them moves vertices. Both halves have as many faces: the left one (chart 0) stays.
+    let stretched = |p: [f64; 3]| [100.0 + 4.0 * p[0], 30.0 + 4.8 * p[1]];
+    let m = two_halves(8, rigid(0.3, [60.0, 20.0], 4.0), stretched);
+    let before = left_half_uvs(&m, 8);
+
+    let held = MergeOptions { one_sided_ration: 0.0, ..MergeOptions::default() };
+    let (t, r) = run(&m, &held);
+    assert_eq!((r.accepted, r.one_sided_merges), (1, 1), "{r:?}");
+    assert_eq!(left_half_uvs(&merged_model(&m, &t), 8), before);
+
+    // The paper's patch covers both sides and fuses the seam at its mean: the left half moves.
+    let paper = MergeOptions { one_sided: false, ..MergeOptions::default() };
+    let (t, r) = run(&m, &paper);
+    assert_eq!((r.accepted, r.one_sided_merges), (1, 0), "{r:?}");
+    assert_ne!(left_half_uvs(&merged_model(&m, &t), 8), before);
+
+    // A one-sided merge over its ration of the budget is done on both sides instead.
+    let rationed = MergeOptions { one_sided_ration: 1e-9, ..MergeOptions::default() };
+    let (_, r) = run(&m, &rationed);
+    assert_eq!((r.accepted, r.one_sided_merges), (1, 0), "{r:?}");
+}
+
 /// A developable cone whose eight 90° sectors add up to 720°: each half lies flat as a full disk
 /// with a slit, the whole cannot lie flat without covering itself twice. Chart A holds sectors
 /// 0–3, chart B sectors 4–7, each with an inner and an outer ring.

@@ -16,7 +16,7 @@ use super::UsageError;
 use crate::cli::{DefragArgs, parse_sheet_size};
 
 /// The top-level keys a config file may hold (besides the plugin tables).
-pub const TOP_LEVEL_KEYS: [&str; 20] = [
+pub const TOP_LEVEL_KEYS: [&str; 22] = [
     "matching-tolerance",
     "boundary-tolerance",
     "local-distortion",
@@ -31,6 +31,8 @@ pub const TOP_LEVEL_KEYS: [&str; 20] = [
     "no-untangle",
     "no-clash-separation",
     "no-solve-repair",
+    "no-one-sided",
+    "one-sided-ration",
     "scorer",
     "solver",
     "packer",
@@ -214,6 +216,12 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
         time_limit: pick(args.time_limit, "time-limit", defaults.time_limit)?,
         no_retry: args.no_retry || file.flag("no-retry")?,
         solve_repair: !(args.no_solve_repair || file.flag("no-solve-repair")?),
+        one_sided: !(args.no_one_sided || file.flag("no-one-sided")?),
+        one_sided_ration: pick(
+            args.one_sided_ration,
+            "one-sided-ration",
+            defaults.one_sided_ration,
+        )?,
         cluster_faces: if args.serial || file.flag("serial")? {
             0
         } else {
