@@ -109,8 +109,11 @@ impl Engine<'_> {
         mode: Mode,
     ) -> (Result<OpGeometry, RejectReason>, Option<CommitRecord>) {
         // An inter-chart merge is tried first with the staying chart held still (see
-        // `MergeOptions::one_sided`), then as the paper does.
-        let one_sided = self.opts.one_sided && self.op_is_inter(op);
+        // `MergeOptions::one_sided`), then as the paper does; a retry of a failed operation only
+        // as the paper does (venus: a retried one-sided attempt rarely passes where the first
+        // failed, and costs a solve).
+        let one_sided =
+            self.opts.one_sided && self.ops[op as usize].failures == 0 && self.op_is_inter(op);
         let mut sides = if one_sided { &[true, false][..] } else { &[false][..] };
         let (g, result) = loop {
             let t0 = Instant::now();
