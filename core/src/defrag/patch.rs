@@ -103,14 +103,16 @@ impl Engine<'_> {
                 c = self.fan_next[c as usize];
             }
         }
-        if let Some(a) = self.hold {
-            // The moving chart's faces on the seam changed shape when the seam was fused, even
-            // those with no free vertex: they are judged and booked with the area too.
+        if self.hold.is_some() {
+            // The faces on the seam changed shape when it was fused, even those with no free
+            // vertex: the moving chart's always, the held chart's where a group held two of its
+            // vertices (a slit closing at the seam's end), which meet at their mean. They are
+            // judged and booked with the area too (venus: 7 new overlapping pairs otherwise).
             for i in 0..self.seeds.len() {
                 let mut c = self.fan_head[self.seeds[i].0 as usize];
                 while c != NONE {
                     let f = c / 3;
-                    if self.t.face_chart[f as usize] != a && !self.face_opt[f as usize] {
+                    if !self.face_opt[f as usize] {
                         self.face_opt[f as usize] = true;
                         self.opt_faces.push(f);
                     }
