@@ -93,15 +93,7 @@ impl Engine<'_> {
         self.free.sort_unstable();
         self.opt_faces.clear();
         for i in 0..self.free.len() {
-            let mut c = self.fan_head[self.free[i] as usize];
-            while c != NONE {
-                let f = c / 3;
-                if !self.face_opt[f as usize] {
-                    self.face_opt[f as usize] = true;
-                    self.opt_faces.push(f);
-                }
-                c = self.fan_next[c as usize];
-            }
+            self.add_fan_to_area(self.free[i]);
         }
         if self.hold.is_some() {
             // The faces on the seam changed shape when it was fused, even those with no free
@@ -109,18 +101,23 @@ impl Engine<'_> {
             // vertices (a slit closing at the seam's end), which meet at their mean. They are
             // judged and booked with the area too (venus: 7 new overlapping pairs otherwise).
             for i in 0..self.seeds.len() {
-                let mut c = self.fan_head[self.seeds[i].0 as usize];
-                while c != NONE {
-                    let f = c / 3;
-                    if !self.face_opt[f as usize] {
-                        self.face_opt[f as usize] = true;
-                        self.opt_faces.push(f);
-                    }
-                    c = self.fan_next[c as usize];
-                }
+                self.add_fan_to_area(self.seeds[i].0);
             }
         }
         self.opt_faces.sort_unstable();
+    }
+
+    /// Adds the faces around vertex `v` to the optimization area (each once).
+    fn add_fan_to_area(&mut self, v: u32) {
+        let mut c = self.fan_head[v as usize];
+        while c != NONE {
+            let f = c / 3;
+            if !self.face_opt[f as usize] {
+                self.face_opt[f as usize] = true;
+                self.opt_faces.push(f);
+            }
+            c = self.fan_next[c as usize];
+        }
     }
 
     /// Builds `self.problem` from the optimization area: local vertices in order of first use by
