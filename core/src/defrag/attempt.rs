@@ -739,8 +739,7 @@ impl Engine<'_> {
         // Dissolved sides outside every optimized face stop being border too: all of them when
         // nothing was freed (the pairs were fused already), the held chart's side of a one-sided
         // merge. Their faces did not change shape, so the lengths before are the lengths now.
-        let dissolved: Vec<u32> = self.log.twin.slots().collect();
-        for h in dissolved {
+        for h in self.log.twin.slots() {
             let h = h as usize;
             let was_border = self.log.twin.before(&self.t.he_uv_twin, h).is_none();
             // `opt_faces` is sorted; the `face_opt` marks are not set when a record is replayed.
