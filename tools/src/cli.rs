@@ -87,6 +87,14 @@ pub struct BuildArgs {
     /// (0 = the paper's distortion alone).
     #[arg(long, value_name = "W", default_value_t = 1.0)]
     pub resolution_weight: f64,
+    /// Keep the partition's seams where the flooding put them (no moving of faces along photo
+    /// seams to where the two photos agree).
+    #[arg(long)]
+    pub no_seam_placement: bool,
+    /// Weight of a face's camera cost (view angle and resolution) against the colour step
+    /// across its seam edges when placing seams; higher keeps closer to the partition.
+    #[arg(long, value_name = "L", default_value_t = 8.0)]
+    pub seam_camera_weight: f64,
     /// Write the full run report as JSON to this file.
     #[arg(long, value_name = "FILE.json")]
     pub report: Option<PathBuf>,

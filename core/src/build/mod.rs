@@ -13,6 +13,7 @@ pub mod occlusion;
 pub mod partition;
 pub mod photo_ring;
 pub mod pyramid;
+pub mod seam_placement;
 pub mod smoothing;
 pub mod split;
 pub mod visibility;

@@ -30,7 +30,7 @@ pub struct OcclusionReport {
 
 /// The overlapping face pairs of one chart's projected triangles `tri` (faces `faces`), each
 /// as `(a, b)` indices into `faces` with `a < b`, sorted.
-fn chart_overlaps(tri: &[[[f64; 2]; 3]]) -> Vec<(u32, u32)> {
+pub(super) fn chart_overlaps(tri: &[[[f64; 2]; 3]]) -> Vec<(u32, u32)> {
     let n = tri.len();
     if n < 2 {
         return Vec::new();

@@ -172,8 +172,9 @@ pub struct Flooded {
 }
 
 /// The paper's `D(f, c)` as a [`Metric`]: labels are cameras, allowed where visible; with a
-/// resolution term when `resolution_weight > 0` (see [`partition`]).
-struct Distortion<'a> {
+/// resolution term when `resolution_weight > 0` (see [`CameraCost::new`]). Kept after the
+/// partition so that later stages (`seam_placement`) weigh a face's photo by the same cost.
+pub struct CameraCost<'a> {
     geom: &'a FaceGeom,
     vis: &'a Visibility,
     centres: Vec<[f64; 3]>,
@@ -183,7 +184,7 @@ struct Distortion<'a> {
     resolution_weight: f64,
 }
 
-impl Metric for Distortion<'_> {
+impl Metric for CameraCost<'_> {
     fn labels(&self) -> usize {
         self.centres.len()
     }
@@ -256,36 +257,44 @@ pub struct ResolutionTerm<'a> {
     pub weight: f64,
 }
 
-/// Algorithm 1 of the paper with the distortion metric `D`. `max_rounds` bounds the
-/// adding/growing alternation (each round may add many seeds; see [`flood_partition`]).
-///
-/// With `resolution_weight = w > 0` the cost of face `f` in camera `c` is
-/// `(||n_f + v_c||² + w·(1 − r_c(f)))·a_f`, where `r_c(f)` is the linear texel density `c` gives
-/// the face relative to its sharpest camera: the paper's `D` picks the most head-on photo
-/// whatever its distance, so a distant photo straight on beats a close one slightly aside, and
-/// the texture loses the close photo's resolution. `w = 0` is the paper's `D` exactly.
-pub fn partition(
-    geom: &FaceGeom,
-    adj: &[[u32; 3]],
-    vis: &Visibility,
-    cams: &[PhotoCamera],
-    max_rounds: u32,
-    resolution: Option<ResolutionTerm<'_>>,
-) -> Partition {
-    let (relative_resolution, resolution_weight) = match resolution {
-        Some(r) if r.weight > 0.0 => {
-            (relative_resolution(r.positions, r.tris, vis, cams), r.weight)
+impl<'a> CameraCost<'a> {
+    /// The metric of [`partition`]. With `resolution.weight = w > 0` the cost of face `f` in
+    /// camera `c` is `(||n_f + v_c||² + w·(1 − r_c(f)))·a_f`, where `r_c(f)` is the linear texel
+    /// density `c` gives the face relative to its sharpest camera: the paper's `D` picks the most
+    /// head-on photo whatever its distance, so a distant photo straight on beats a close one
+    /// slightly aside, and the texture loses the close photo's resolution. `w = 0` (or `None`)
+    /// is the paper's `D` exactly.
+    pub fn new(
+        geom: &'a FaceGeom,
+        vis: &'a Visibility,
+        cams: &[PhotoCamera],
+        resolution: Option<ResolutionTerm<'_>>,
+    ) -> Self {
+        let (relative_resolution, resolution_weight) = match resolution {
+            Some(r) if r.weight > 0.0 => {
+                (relative_resolution(r.positions, r.tris, vis, cams), r.weight)
+            }
+            _ => (Vec::new(), 0.0),
+        };
+        Self {
+            geom,
+            vis,
+            centres: cams.iter().map(PhotoCamera::centre).collect(),
+            relative_resolution,
+            resolution_weight,
         }
-        _ => (Vec::new(), 0.0),
-    };
-    let metric = Distortion {
-        geom,
-        vis,
-        centres: cams.iter().map(PhotoCamera::centre).collect(),
-        relative_resolution,
-        resolution_weight,
-    };
-    let r = flood_partition(adj, &metric, max_rounds);
+    }
+
+    /// The 3-D area of face `f`.
+    pub fn face_area(&self, f: usize) -> f64 {
+        self.geom.area[f]
+    }
+}
+
+/// Algorithm 1 of the paper with the camera metric `D` ([`CameraCost`]). `max_rounds` bounds
+/// the adding/growing alternation (each round may add many seeds; see [`flood_partition`]).
+pub fn partition(adj: &[[u32; 3]], metric: &CameraCost<'_>, max_rounds: u32) -> Partition {
+    let r = flood_partition(adj, metric, max_rounds);
     Partition {
         face_chart: r.face_chart,
         chart_camera: r.chart_label,

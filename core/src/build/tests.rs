@@ -3,7 +3,7 @@
 #![allow(clippy::needless_range_loop)] // face loops index several per-face arrays
 
 use super::cameras::{Distortion, Intrinsics, PhotoCamera, Rig};
-use super::partition::{FaceGeom, NONE, face_adjacency, partition};
+use super::partition::{CameraCost, FaceGeom, NONE, face_adjacency, partition};
 use super::visibility::{VisibilityOptions, compute};
 use super::*;
 use crate::synth::rig::{RigParams, generate_rig};
@@ -184,7 +184,7 @@ fn partition_covers_every_seen_face_once_with_connected_charts_that_see_them() {
     let vis = compute(&model.positions, &tris, &rig.cameras, &VisibilityOptions::default());
     let geom = FaceGeom::new(&model.positions, &tris);
     let adj = face_adjacency(&tris);
-    let p = partition(&geom, &adj, &vis, &rig.cameras, 12, None);
+    let p = partition(&adj, &CameraCost::new(&geom, &vis, &rig.cameras, None), 12);
     assert!(p.chart_camera.len() >= 2 && p.chart_camera.len() <= p.charts_before_merge);
     for f in 0..tris.len() {
         let c = p.face_chart[f];
@@ -206,6 +206,86 @@ fn partition_covers_every_seen_face_once_with_connected_charts_that_see_them() {
                 assert_ne!(p.chart_camera[a as usize], p.chart_camera[b as usize]);
             }
         }
+    }
+}
+
+/// Seam placement on a small rig: the seams' colour step and the objective go down, every face
+/// stays in a chart whose photo sees it, the charts stay connected and do not overlap in their
+/// photos, and the camera cost rises by no more than the seam cost falls.
+#[test]
+fn seam_placement_lowers_the_seam_step_and_keeps_charts_valid() {
+    use super::exposure::Exposure;
+    use super::occlusion::{chart_overlaps, detach_overlaps};
+    use super::seam_placement::{SeamInput, SeamPlacementOptions, place_seams};
+    let dir = tempfile::tempdir().unwrap();
+    let p = RigParams { faces: 1500, photos: 8, width: 160, height: 120, ..RigParams::default() };
+    let out = generate_rig(&p, dir.path()).unwrap();
+    let rig: Rig = read_rig(&out.colmap_text, &out.images).unwrap();
+    let model = crate::io::read_model(&out.mesh).unwrap();
+    let tris: Vec<[u32; 3]> = model.faces.iter().map(|f| f.v.map(|v| v.0)).collect();
+    let pos = &model.positions;
+    let vis = compute(pos, &tris, &rig.cameras, &VisibilityOptions::default());
+    let geom = FaceGeom::new(pos, &tris);
+    let adj = face_adjacency(&tris);
+    let metric = CameraCost::new(&geom, &vis, &rig.cameras, None);
+    let mut part = partition(&adj, &metric, 12);
+    detach_overlaps(&mut part, pos, &tris, &geom, &vis, &rig.cameras);
+    let work = dir.path().join("work");
+    std::fs::create_dir_all(&work).unwrap();
+    let photos: Vec<crate::texture::TileStore> = rig
+        .cameras
+        .iter()
+        .map(|c| {
+            let src = crate::model::ImageSource::File(out.images.join(&c.image));
+            crate::texture::decode::decode_to_store(&src, &work).unwrap()
+        })
+        .collect();
+    let gains = Exposure::identity(rig.cameras.len());
+    let input = SeamInput {
+        positions: pos,
+        tris: &tris,
+        adj: &adj,
+        vis: &vis,
+        cams: &rig.cameras,
+        photos: &photos,
+        gains: &gains,
+        metric: &metric,
+    };
+    let before = part.clone();
+    let opts = SeamPlacementOptions::default();
+    let r = place_seams(&mut part, &input, &opts);
+    eprintln!("{r:?}");
+    assert!(r.faces_moved > 0, "{r:?}");
+    assert!(r.seam_step_after < r.seam_step_before, "{r:?}");
+    let objective = |seam: f64, camera: f64| seam + camera;
+    assert!(
+        objective(r.seam_cost_after, r.camera_cost_after)
+            < objective(r.seam_cost_before, r.camera_cost_before),
+        "{r:?}"
+    );
+    let moved = (0..tris.len()).filter(|&f| {
+        let (a, b) = (before.face_chart[f], part.face_chart[f]);
+        a != NONE && before.chart_camera[a as usize] != part.chart_camera[b as usize]
+    });
+    assert!(moved.count() > 0, "some face changed photo");
+    for f in 0..tris.len() {
+        let c = part.face_chart[f];
+        assert_eq!(c == NONE, before.face_chart[f] == NONE, "seen faces only, all of them");
+        if c != NONE {
+            assert!(vis.of(f).contains(&part.chart_camera[c as usize]), "the photo sees face {f}");
+        }
+    }
+    if r.faces_reverted == 0 {
+        assert!(labels_connected(&part.face_chart, &adj), "charts connected");
+    }
+    for c in 0..part.chart_camera.len() as u32 {
+        let cam = &rig.cameras[part.chart_camera[c as usize] as usize];
+        let tri: Vec<[[f64; 2]; 3]> = (0..tris.len())
+            .filter(|&f| part.face_chart[f] == c)
+            .map(|f| tris[f].map(|v| cam.project_texel(pos[v as usize]).unwrap()))
+            .collect();
+        assert!(!tri.is_empty(), "no empty chart");
+        assert!(chart_overlaps(&tri).is_empty(), "chart {c} overlaps itself");
     }
 }
 

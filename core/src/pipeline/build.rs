@@ -14,10 +14,13 @@ use crate::build::exposure::{self, Exposure, ExposureOptions};
 use crate::build::frequency::{self, FrequencyOptions};
 use crate::build::occlusion::{OcclusionReport, detach_overlaps};
 use crate::build::partition::{
-    FaceGeom, NONE, Partition, ResolutionTerm, face_adjacency, partition,
+    CameraCost, FaceGeom, NONE, Partition, ResolutionTerm, face_adjacency, partition,
 };
 use crate::build::photo_ring::{RingChart, fill_rings};
 use crate::build::pyramid::{MAX_LEVELS, level_size, reduce_store, to_level};
+use crate::build::seam_placement::{
+    SeamInput, SeamPlacementOptions, SeamPlacementReport, place_seams,
+};
 use crate::build::smoothing::{self, ChartGrid, Rgb};
 use crate::build::split::{Split, SplitInput, split_charts};
 use crate::build::visibility::{self, VisibilityOptions};
@@ -53,6 +56,10 @@ pub struct BuildConfig {
     /// texel taken from that photo before the colour smoothing.
     pub exposure: bool,
     pub exposure_options: ExposureOptions,
+    /// Seam placement: faces along photo seams move to the neighbouring chart where the two
+    /// photos agree (`build::seam_placement`), after the exposure gains are known.
+    pub seam_placement: bool,
+    pub seam_placement_options: SeamPlacementOptions,
     /// Free texels around each chart (the paper's 1-texel border, doubled for bilinear mips).
     pub padding: u32,
     pub visibility: VisibilityOptions,
@@ -77,6 +84,8 @@ impl Default for BuildConfig {
             frequency: FrequencyOptions::default(),
             exposure: true,
             exposure_options: ExposureOptions::default(),
+            seam_placement: true,
+            seam_placement_options: SeamPlacementOptions::default(),
             padding: 2,
             visibility: VisibilityOptions::default(),
             resolution_weight: 1.0,
@@ -97,6 +106,8 @@ pub struct BuildTimes {
     pub decode_ms: f64,
     /// Fitting the photos' exposure gains.
     pub exposure_ms: f64,
+    /// Moving faces along photo seams.
+    pub seam_placement_ms: f64,
     /// Frequency analysis, level smoothing and splitting.
     pub frequency_ms: f64,
     pub parametrize_ms: f64,
@@ -153,6 +164,8 @@ pub struct BuildReport {
     pub frequency: Option<FrequencyReport>,
     /// The photos' exposure gains and the fit's figures (`None` with `exposure` off).
     pub exposure: Option<Exposure>,
+    /// What the seam placement did (`None` when it is off).
+    pub seam_placement: Option<SeamPlacementReport>,
     pub pack: Option<PackReport>,
     pub resample: Option<ResampleReport>,
     pub times: BuildTimes,
@@ -218,6 +231,13 @@ pub fn build(
             cfg.resolution_weight
         )));
     }
+    let sp = &cfg.seam_placement_options;
+    if !(sp.camera_weight.is_finite() && sp.camera_weight >= 0.0 && sp.inset.is_finite()) {
+        return Err(PipelineError::Usage(format!(
+            "the seam placement's camera weight must be a number ≥ 0, not {}",
+            sp.camera_weight
+        )));
+    }
     let mut times = BuildTimes::default();
     let t = Instant::now();
     let model = crate::io::read_model(mesh)?;
@@ -265,14 +285,13 @@ pub fn build(
     let t = Instant::now();
     let geom = FaceGeom::new(positions, &tris);
     let adj = face_adjacency(&tris);
-    let mut part = partition(
+    let camera_cost = CameraCost::new(
         &geom,
-        &adj,
         &vis,
         &rig.cameras,
-        cfg.max_rounds,
         Some(ResolutionTerm { positions, tris: &tris, weight: cfg.resolution_weight }),
     );
+    let mut part = partition(&adj, &camera_cost, cfg.max_rounds);
     let occlusion = detach_overlaps(&mut part, positions, &tris, &geom, &vis, &rig.cameras);
     times.partition_ms = ms(t);
 
@@ -282,7 +301,6 @@ pub fn build(
     let t = Instant::now();
     let nf = tris.len();
     let n_cams = rig.cameras.len();
-    let n_charts = part.chart_camera.len();
     let out_dir = match output.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
@@ -332,6 +350,25 @@ pub fn build(
     };
     let gains = expo.clone().unwrap_or_else(|| Exposure::identity(n_cams));
     times.exposure_ms = ms(t);
+
+    let t = Instant::now();
+    let placed = cfg.seam_placement.then(|| {
+        let input = SeamInput {
+            positions,
+            tris: &tris,
+            adj: &adj,
+            vis: &vis,
+            cams: &rig.cameras,
+            photos: &photos,
+            gains: &gains,
+            metric: &camera_cost,
+        };
+        let r = place_seams(&mut part, &input, &cfg.seam_placement_options);
+        release(&photos);
+        r
+    });
+    let n_charts = part.chart_camera.len();
+    times.seam_placement_ms = ms(t);
 
     // Level-0 projection (with lens distortion) of every seen face's corners into its chart's
     // photo, in that photo's texel space.
@@ -701,6 +738,7 @@ pub fn build(
         frequency_split: freq.is_some(),
         frequency: freq,
         exposure: expo,
+        seam_placement: placed,
         pack: Some(packed.report.clone()),
         resample: Some(res.report.clone()),
         times,

@@ -2,6 +2,7 @@
 //! registered photographs.
 
 use anyhow::{Context, Result};
+use scanatlas_core::build::seam_placement::SeamPlacementOptions;
 use scanatlas_core::pipeline::build::{BuildConfig, build};
 use scanatlas_core::plugin::Registry;
 
@@ -18,6 +19,11 @@ pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
         frequency_split: !args.no_frequency_split,
         exposure: !args.no_exposure,
         resolution_weight: args.resolution_weight,
+        seam_placement: !args.no_seam_placement,
+        seam_placement_options: SeamPlacementOptions {
+            camera_weight: args.seam_camera_weight,
+            ..SeamPlacementOptions::default()
+        },
         ..BuildConfig::default()
     };
     let stage = Stage::spinner("building the atlas", quiet);
