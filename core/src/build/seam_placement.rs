@@ -46,7 +46,7 @@ pub struct SeamPlacementOptions {
 
 impl Default for SeamPlacementOptions {
     fn default() -> Self {
-        Self { camera_weight: 8.0, inset: 0.75, max_passes: 12 }
+        Self { camera_weight: 8.0, inset: 0.75, max_passes: 32 }
     }
 }
 
@@ -54,8 +54,10 @@ impl Default for SeamPlacementOptions {
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct SeamPlacementReport {
     pub options: Option<SeamPlacementOptions>,
-    /// Sweeps run (the last one moved nothing unless `max_passes` stopped it).
+    /// Sweeps run (the last one moved nothing unless `max_passes` stopped it), and the faces
+    /// each moved (a face may move in several).
     pub passes: u32,
+    pub moved_per_pass: Vec<usize>,
     /// Faces that ended in another chart than the partition's.
     pub faces_moved: usize,
     /// Moves undone because the face overlapped a face of its new chart in the photo.
@@ -335,6 +337,7 @@ pub fn place_seams(
             }
         }
         dirty = next;
+        report.moved_per_pass.push(moved);
         if moved == 0 {
             break;
         }

@@ -1,5 +1,6 @@
 //! `build`: a textured model from a mesh and registered photos (the projective texture atlas
-//! of Velho & Sossai). Stages: load → cameras → visibility → partition → projective UVs → pack
+//! of Velho & Sossai). Stages: load → cameras → visibility → partition → photos decoded →
+//! exposure gains → seam placement → frequency split → projective UVs → pack
 //! (a `Packer` plugin through [`pack_layout`]) → texture from the photos per output tile
 //! ([`resample_sheets`], photo texels copied verbatim since every chart is an integer placement
 //! of its photo region) → colour smoothing → gutters → write, with a serde report.
