@@ -29,7 +29,7 @@ use super::occlusion::chart_overlaps;
 use super::partition::{CameraCost, Metric, NONE, Partition};
 use super::smoothing::{Rgb, sample};
 use super::visibility::Visibility;
-use crate::metrics::seam::{corner_of, inside_point};
+use crate::metrics::seam::{SEAM_SAMPLES, Seam, seam_points};
 use crate::texture::TileStore;
 
 /// Options of [`place_seams`].
@@ -112,31 +112,29 @@ impl Ctx<'_> {
         self.input.gains.correct(c as usize, sample(photo, p), photo.format().sample)
     }
 
-    /// `step(e)` of face `f`'s edge `k` with `f` read in camera `cf` and its neighbour `g` in
-    /// camera `cg`, times the edge's weight. An edge that cannot be projected costs as much as
-    /// the largest step, so the descent never prefers it.
-    fn edge_cost(&self, f: usize, k: usize, cf: u32, g: usize, cg: u32) -> f64 {
+    /// `step(e)` of face `f`'s edge `k` with `f` read in camera `cf` (where its triangle is
+    /// `tf`) and its neighbour `g` in camera `cg`, times the edge's weight. An edge that cannot
+    /// be projected costs as much as the largest step, so the descent never prefers it.
+    fn edge_cost(
+        &self,
+        (f, tf, cf): (usize, Option<[[f64; 2]; 3]>, u32),
+        k: usize,
+        g: usize,
+        cg: u32,
+    ) -> f64 {
         let w = self.edge_weight[f][k];
-        let (Some(tf), Some(tg)) = (self.projected(f, cf), self.projected(g, cg)) else {
+        let (Some(tf), Some(tg)) = (tf, self.projected(g, cg)) else {
             return 255.0 * w;
         };
-        let tris = self.input.tris;
-        let (va, vb) = (tris[f][k], tris[f][(k + 1) % 3]);
-        let kg = corner_of(&tris[g], vb);
-        let forward_g = tris[g][(kg + 1) % 3] == va;
-        let inset = self.opts.inset;
+        let seam = Seam { f: f as u32, k: k as u8, g: g as u32 };
+        let inset = [self.opts.inset; 2];
         let mut sum = 0.0;
-        for s in [0.25, 0.5, 0.75] {
-            let pf = inside_point(tf, k, s, inset);
-            let pg = if forward_g {
-                inside_point(tg, kg, 1.0 - s, inset)
-            } else {
-                inside_point(tg, corner_of(&tris[g], va), s, inset)
-            };
+        for s in SEAM_SAMPLES {
+            let (pf, pg) = seam_points(self.input.tris, seam, [tf, tg], s, inset);
             let (a, b) = (self.read(cf, pf), self.read(cg, pg));
             sum += (0..3).map(|i| (a[i] - b[i]).abs()).sum::<f64>();
         }
-        sum / 9.0 * 255.0 * w
+        sum / (3.0 * SEAM_SAMPLES.len() as f64) * 255.0 * w
     }
 
     /// The camera part of face `f`'s cost in camera `c`.
@@ -148,6 +146,7 @@ impl Ctx<'_> {
     /// and its camera cost.
     fn face_cost(&self, f: usize, chart: u32, cam: u32, part: &Partition) -> f64 {
         let mut cost = self.camera_cost(f, cam);
+        let tf = self.projected(f, cam);
         for (k, &g) in self.input.adj[f].iter().enumerate() {
             if g == NONE {
                 continue;
@@ -156,7 +155,7 @@ impl Ctx<'_> {
             if cg == NONE || cg == chart {
                 continue;
             }
-            cost += self.edge_cost(f, k, cam, g as usize, part.chart_camera[cg as usize]);
+            cost += self.edge_cost((f, tf, cam), k, g as usize, part.chart_camera[cg as usize]);
         }
         cost
     }
@@ -169,6 +168,8 @@ impl Ctx<'_> {
             if cf == NONE {
                 continue;
             }
+            let cam = part.chart_camera[cf as usize];
+            let tf = self.projected(f, cam);
             for (k, &g) in nb.iter().enumerate() {
                 // Each edge once, from its lower face.
                 if g == NONE || (g as usize) < f {
@@ -178,13 +179,7 @@ impl Ctx<'_> {
                 if cg == NONE || cg == cf {
                     continue;
                 }
-                let c = self.edge_cost(
-                    f,
-                    k,
-                    part.chart_camera[cf as usize],
-                    g as usize,
-                    part.chart_camera[cg as usize],
-                );
+                let c = self.edge_cost((f, tf, cam), k, g as usize, part.chart_camera[cg as usize]);
                 cost += c;
                 steps += c / self.edge_weight[f][k].max(1e-12);
                 n += 1;

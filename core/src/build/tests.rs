@@ -4,6 +4,7 @@
 
 use super::cameras::{Distortion, Intrinsics, PhotoCamera, Rig};
 use super::partition::{CameraCost, FaceGeom, NONE, face_adjacency, partition};
+use super::smoothing;
 use super::visibility::{VisibilityOptions, compute};
 use super::*;
 use crate::synth::rig::{RigParams, generate_rig};
@@ -286,6 +287,66 @@ fn seam_placement_lowers_the_seam_step_and_keeps_charts_valid() {
             .collect();
         assert!(!tri.is_empty(), "no empty chart");
         assert!(chart_overlaps(&tri).is_empty(), "chart {c} overlaps itself");
+    }
+}
+
+/// The cameras read from files agree with the photos: the centroid of a face a photo sees,
+/// projected with the camera read from COLMAP text, COLMAP binary or Bundler (lens included; every
+/// other photo of the rig has a radial k1), lands where the photo holds the face's true colour
+/// times that photo's gain; half a pixel off (pixel corner against pixel centre) it does not.
+#[test]
+fn a_seen_point_projects_onto_its_true_colour_in_every_camera_format() {
+    use crate::synth::linear_to_srgb8;
+    let dir = tempfile::tempdir().unwrap();
+    let p = RigParams { faces: 1500, photos: 6, width: 320, height: 240, ..RigParams::default() };
+    let out = generate_rig(&p, dir.path()).unwrap();
+    let model = crate::io::read_model(&out.mesh).unwrap();
+    let tris: Vec<[u32; 3]> = model.faces.iter().map(|f| f.v.map(|v| v.0)).collect();
+    let geom = FaceGeom::new(&model.positions, &tris);
+    let work = dir.path().join("work");
+    std::fs::create_dir_all(&work).unwrap();
+    for cameras in [&out.colmap_text, &out.colmap_binary, &out.bundler] {
+        let rig = read_rig(cameras, &out.images).unwrap();
+        let vis = compute(&model.positions, &tris, &rig.cameras, &VisibilityOptions::default());
+        let photos: Vec<crate::texture::TileStore> = rig
+            .cameras
+            .iter()
+            .map(|c| {
+                let src = crate::model::ImageSource::File(out.images.join(&c.image));
+                crate::texture::decode::decode_to_store(&src, &work).unwrap()
+            })
+            .collect();
+        // Errors at the projection and half a pixel off in each diagonal direction.
+        const OFF: [[f64; 2]; 5] = [[0.0, 0.0], [0.5, 0.5], [0.5, -0.5], [-0.5, 0.5], [-0.5, -0.5]];
+        let mut errs: [Vec<f64>; 5] = Default::default();
+        for f in 0..tris.len() {
+            for &c in vis.of(f) {
+                let cam = &rig.cameras[c as usize];
+                // The photo's index in the rig, from its name (photo_NNN.png).
+                let k: usize = cam.image[6..9].parse().unwrap();
+                let Some(q) = cam.project_texel(geom.centroid[f]) else { continue };
+                let truth = p.color(geom.centroid[f]);
+                let want = [0, 1, 2]
+                    .map(|i| f64::from(linear_to_srgb8(truth[i] * out.gains[k][i])) / 255.0);
+                for (o, e) in OFF.iter().zip(errs.iter_mut()) {
+                    let got = smoothing::sample(&photos[c as usize], [q[0] + o[0], q[1] + o[1]]);
+                    e.push((0..3).map(|i| (got[i] - want[i]).abs()).sum::<f64>() / 3.0 * 255.0);
+                }
+            }
+        }
+        let n = errs[0].len();
+        let medians = errs.map(|mut v| {
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        });
+        eprintln!("{}: {n} face views, median errors {medians:.3?}", cameras.display());
+        assert!(n > 1000, "{n} face views");
+        // The photos have detail down to the pixel, so even the exact point reads a mix of
+        // neighbouring pixels; the exact point must still read best by a clear margin.
+        assert!(medians[0] < 6.0, "median error {:.3} (8-bit units)", medians[0]);
+        for m in &medians[1..] {
+            assert!(*m > 1.2 * medians[0], "half a pixel off reads as well: {medians:.3?}");
+        }
     }
 }
 

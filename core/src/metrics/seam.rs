@@ -75,6 +75,33 @@ pub fn inside_point(uv: [[f64; 2]; 3], k: usize, s: f64, inset: f64) -> [f64; 2]
     [e[0] + t * d[0], e[1] + t * d[1]]
 }
 
+/// Where along a seam edge its two sides are read: a quarter, half and three quarters.
+pub const SEAM_SAMPLES: [f64; 3] = [0.25, 0.5, 0.75];
+
+/// The two points read at parameter `s` along seam edge `sm`: one `inset[0]` inside face `f`'s
+/// triangle `uv[0]`, the other `inset[1]` inside face `g`'s triangle `uv[1]`, at the same place
+/// along the shared edge. `tris` are corner ids that agree between the two faces.
+pub fn seam_points(
+    tris: &[[u32; 3]],
+    sm: Seam,
+    uv: [[[f64; 2]; 3]; 2],
+    s: f64,
+    inset: [f64; 2],
+) -> ([f64; 2], [f64; 2]) {
+    let (f, g, k) = (sm.f as usize, sm.g as usize, usize::from(sm.k));
+    let (va, vb) = (tris[f][k], tris[f][(k + 1) % 3]);
+    let kg = corner_of(&tris[g], vb);
+    let pf = inside_point(uv[0], k, s, inset[0]);
+    // In g the same edge runs b → a, i.e. from g's corner kg to kg + 1 when consistently
+    // oriented; otherwise parametrize from a explicitly.
+    let pg = if tris[g][(kg + 1) % 3] == va {
+        inside_point(uv[1], kg, 1.0 - s, inset[1])
+    } else {
+        inside_point(uv[1], corner_of(&tris[g], va), s, inset[1])
+    };
+    (pf, pg)
+}
+
 /// The colour jump across `seams`, and what of it the surface's own colour explains.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SeamJump {
@@ -127,21 +154,11 @@ pub fn seam_jump_against(
     let mut sum_excess = 0.0;
     let mut n = 0.0;
     for sm in seams {
-        let (f, g, k) = (sm.f as usize, sm.g as usize, sm.k as usize);
-        let (va, vb) = (tris[f][k], tris[f][(k + 1) % 3]);
-        let kg = corner_of(&tris[g], vb);
-        // In g the same edge runs b → a, i.e. from g's corner kg to kg + 1 when consistently
-        // oriented; otherwise parametrize from a explicitly.
+        let (f, g) = (sm.f as usize, sm.g as usize);
         let uvf = [0, 1, 2].map(|c| out_uv(f, c));
         let uvg = [0, 1, 2].map(|c| out_uv(g, c));
-        let forward_g = tris[g][(kg + 1) % 3] == va;
-        for s in [0.25, 0.5, 0.75] {
-            let pf = inside_point(uvf, k, s, inset(f));
-            let pg = if forward_g {
-                inside_point(uvg, kg, 1.0 - s, inset(g))
-            } else {
-                inside_point(uvg, corner_of(&tris[g], va), s, inset(g))
-            };
+        for s in SEAM_SAMPLES {
+            let (pf, pg) = seam_points(tris, *sm, [uvf, uvg], s, [inset(f), inset(g)]);
             let cf = smoothing::sample(&sheets[face_sheet[f] as usize], pf);
             let cg = smoothing::sample(&sheets[face_sheet[g] as usize], pg);
             sum += (0..3).map(|c| (cf[c] - cg[c]).abs()).sum::<f64>() / 3.0 * 255.0;
