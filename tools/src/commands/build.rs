@@ -37,6 +37,17 @@ pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
         .with_context(|| format!("writing {}", p.display()))?;
     }
     if !quiet {
+        if let Some(sp) = &report.seam_placement {
+            eprintln!(
+                "seam placement: {} faces moved in {} sweeps, seam edges {} -> {}, mean colour step across them {:.2} -> {:.2}",
+                sp.faces_moved,
+                sp.passes,
+                sp.seam_edges_before,
+                sp.seam_edges_after,
+                sp.seam_step_before,
+                sp.seam_step_after
+            );
+        }
         if let Some(fr) = &report.frequency {
             eprintln!(
                 "frequency split: {} sub-charts from {} charts, faces per level {:?}, texels saved (padded rectangles) {}",
