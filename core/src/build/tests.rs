@@ -210,6 +210,18 @@ fn partition_covers_every_seen_face_once_with_connected_charts_that_see_them() {
     }
 }
 
+/// Every photo of `rig` decoded into a tile store under `work` (created), by camera index.
+fn decode_photos(rig: &Rig, images: &Path, work: &Path) -> Vec<crate::texture::TileStore> {
+    std::fs::create_dir_all(work).unwrap();
+    rig.cameras
+        .iter()
+        .map(|c| {
+            let src = crate::model::ImageSource::File(images.join(&c.image));
+            crate::texture::decode::decode_to_store(&src, work).unwrap()
+        })
+        .collect()
+}
+
 /// Seam placement on a small rig: the seams' colour step and the objective go down, every face
 /// stays in a chart whose photo sees it, the charts stay connected and do not overlap in their
 /// photos, and the camera cost rises by no more than the seam cost falls.
@@ -231,16 +243,7 @@ fn seam_placement_lowers_the_seam_step_and_keeps_charts_valid() {
     let metric = CameraCost::new(&geom, &vis, &rig.cameras, None);
     let mut part = partition(&adj, &metric, 12);
     detach_overlaps(&mut part, pos, &tris, &geom, &vis, &rig.cameras);
-    let work = dir.path().join("work");
-    std::fs::create_dir_all(&work).unwrap();
-    let photos: Vec<crate::texture::TileStore> = rig
-        .cameras
-        .iter()
-        .map(|c| {
-            let src = crate::model::ImageSource::File(out.images.join(&c.image));
-            crate::texture::decode::decode_to_store(&src, &work).unwrap()
-        })
-        .collect();
+    let photos = decode_photos(&rig, &out.images, &dir.path().join("work"));
     let gains = Exposure::identity(rig.cameras.len());
     let input = SeamInput {
         positions: pos,
@@ -304,18 +307,10 @@ fn a_seen_point_projects_onto_its_true_colour_in_every_camera_format() {
     let tris: Vec<[u32; 3]> = model.faces.iter().map(|f| f.v.map(|v| v.0)).collect();
     let geom = FaceGeom::new(&model.positions, &tris);
     let work = dir.path().join("work");
-    std::fs::create_dir_all(&work).unwrap();
     for cameras in [&out.colmap_text, &out.colmap_binary, &out.bundler] {
         let rig = read_rig(cameras, &out.images).unwrap();
         let vis = compute(&model.positions, &tris, &rig.cameras, &VisibilityOptions::default());
-        let photos: Vec<crate::texture::TileStore> = rig
-            .cameras
-            .iter()
-            .map(|c| {
-                let src = crate::model::ImageSource::File(out.images.join(&c.image));
-                crate::texture::decode::decode_to_store(&src, &work).unwrap()
-            })
-            .collect();
+        let photos = decode_photos(&rig, &out.images, &work);
         // Errors at the projection and half a pixel off in each diagonal direction.
         const OFF: [[f64; 2]; 5] = [[0.0, 0.0], [0.5, 0.5], [0.5, -0.5], [-0.5, 0.5], [-0.5, -0.5]];
         let mut errs: [Vec<f64>; 5] = Default::default();
