@@ -64,10 +64,11 @@ pub fn merge_charts_parallel(
                 }
             }
         }
-        let results: Vec<ClusterResult> = (0..n_clusters)
+        let timed: Vec<(ClusterResult, f64)> = (0..n_clusters)
             .into_par_iter()
             .filter(|&k| busy[k as usize])
             .map(|k| {
+                let t = Instant::now();
                 let mut solver =
                     pool.lock().map(|mut p| p.pop()).ok().flatten().expect("one solver per worker");
                 let r = run_cluster(
@@ -82,10 +83,13 @@ pub fn merge_charts_parallel(
                 if let Ok(mut p) = pool.lock() {
                     p.push(solver);
                 }
-                r
+                (r, t.elapsed().as_secs_f64() * 1e3)
             })
             .collect();
-        let largest = results.iter().map(|r| r.faces.len() as u64).max().unwrap_or(0);
+        let cluster_faces: Vec<u64> = timed.iter().map(|(r, _)| r.faces.len() as u64).collect();
+        let cluster_ms: Vec<f64> = timed.iter().map(|&(_, ms)| ms).collect();
+        let results: Vec<ClusterResult> = timed.into_iter().map(|(r, _)| r).collect();
+        let largest = cluster_faces.iter().copied().max().unwrap_or(0);
         import(&mut master, &cluster, &busy, results);
         master.report.rounds.push(ClusterRound {
             clusters: n_clusters,
@@ -93,6 +97,8 @@ pub fn merge_charts_parallel(
             attempted: master.report.attempted - attempted0,
             accepted: master.report.accepted - accepted0,
             wall_ms: round_start.elapsed().as_secs_f64() * 1e3,
+            cluster_faces,
+            cluster_ms,
         });
         if master.report.stop == StopReason::TimeLimit {
             break;
@@ -121,6 +127,8 @@ pub fn merge_charts_parallel(
                 attempted: master.report.attempted - attempted0,
                 accepted: master.report.accepted - accepted0,
                 wall_ms: round_start.elapsed().as_secs_f64() * 1e3,
+                cluster_faces: Vec::new(),
+                cluster_ms: Vec::new(),
             });
         }
     }

@@ -367,6 +367,10 @@ pub struct ClusterRound {
     pub attempted: u64,
     pub accepted: u64,
     pub wall_ms: f64,
+    /// Faces and wall time of each cluster that had work, in cluster order (empty for the last,
+    /// single-queue round): how evenly the round kept the threads busy.
+    pub cluster_faces: Vec<u64>,
+    pub cluster_ms: Vec<f64>,
 }
 
 impl MergeReport {
