@@ -53,7 +53,7 @@ impl Default for SeamPlacementOptions {
 /// What [`place_seams`] did.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct SeamPlacementReport {
-    pub options: Option<SeamPlacementOptions>,
+    pub options: SeamPlacementOptions,
     /// Sweeps run (the last one moved nothing unless `max_passes` stopped it), and the faces
     /// each moved (a face may move in several).
     pub passes: u32,
@@ -275,7 +275,7 @@ pub fn place_seams(
             .collect(),
         inv_mean_area: if mean_area > 0.0 { 1.0 / mean_area } else { 0.0 },
     };
-    let mut report = SeamPlacementReport { options: Some(opts.clone()), ..Default::default() };
+    let mut report = SeamPlacementReport { options: opts.clone(), ..Default::default() };
     let (cost, step, n) = ctx.seam_totals(part);
     (report.seam_cost_before, report.seam_step_before, report.seam_edges_before) = (cost, step, n);
     report.camera_cost_before = ctx.camera_total(part);
@@ -293,28 +293,31 @@ pub fn place_seams(
             if !dirty[f] || a == NONE {
                 continue;
             }
+            // Neighbouring charts whose photo sees the face: only those may take it, so a face
+            // with none costs neither the connectivity walk nor its own cost.
+            let seen = input.vis.of(f);
             cand.clear();
             for &g in &adj[f] {
                 if g == NONE {
                     continue;
                 }
                 let b = part.face_chart[g as usize];
-                if b != NONE && b != a && !cand.contains(&b) {
+                if b != NONE
+                    && b != a
+                    && !cand.contains(&b)
+                    && seen.binary_search(&part.chart_camera[b as usize]).is_ok()
+                {
                     cand.push(b);
                 }
             }
             if cand.is_empty() || !leaves_chart_connected(f, a, adj, tris, &part.face_chart) {
                 continue;
             }
-            let seen = input.vis.of(f);
             let here = ctx.face_cost(f, a, part.chart_camera[a as usize], part);
             let mut best = (here, a);
             cand.sort_unstable();
             for &b in &cand {
                 let cam = part.chart_camera[b as usize];
-                if seen.binary_search(&cam).is_err() {
-                    continue;
-                }
                 let c = ctx.face_cost(f, b, cam, part);
                 if c < best.0 - 1e-9 {
                     best = (c, b);
