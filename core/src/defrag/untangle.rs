@@ -870,19 +870,9 @@ fn flip_folds(
             fits.then_some((k, x))
         });
         let Some((k, x)) = placed else { continue };
-        let c = 3 * f + (k + 2) % 3;
-        let v = crate::topology::UvVertId::from_usize(t.uv_pos.len());
-        t.uv_pos.push(x);
-        t.uv_vpos.push(t.corner_pos[c]);
-        let chart = t.uv_chart[t.corner_uv[c].idx()];
-        t.uv_chart.push(chart);
-        t.corner_uv[c] = v;
+        t.split_corner(3 * f + (k + 2) % 3, x);
         for h in [3 * f + (k + 1) % 3, 3 * f + (k + 2) % 3] {
-            let twin = t.he_uv_twin[h];
-            if !twin.is_none() {
-                t.he_uv_twin[twin.idx()] = crate::topology::HalfEdgeId::NONE;
-                t.he_uv_twin[h] = crate::topology::HalfEdgeId::NONE;
-            }
+            t.cut_uv_side(h);
         }
         flipped += 1;
     }

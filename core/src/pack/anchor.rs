@@ -6,8 +6,8 @@
 //!
 //! Unlike the reference, the rotation is a SIGNED angle (atan2 of cross and dot) undone by its
 //! negative, so charts turned by +θ and −θ are both restored (digest §10 item 2); the 5% threshold
-//! of the paper is applied (item 3); and the group also agrees on the sub-texel part of the
-//! translation and on the source sheet, so every face called preserved really is.
+//! of the paper is applied (item 3); and the group also agrees on the translation (to a thousandth
+//! of a texel) and on the source sheet, so every face called preserved really is.
 
 use rustc_hash::FxHashMap;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -123,8 +123,11 @@ impl Anchor {
     }
 
     /// Whether a face with rigid map `r` (original corner 0 `o`, current corner 0 `c`) belongs to
-    /// this anchor's group: same mirror, close angle, and the same sub-texel translation measured
-    /// with the anchor's own residual angle.
+    /// this anchor's group: same mirror, close angle, and the same translation measured with the
+    /// anchor's own residual angle. The whole translation must agree, not only its sub-texel
+    /// part: the chart frame puts every preserved vertex at `g0(orig)`, so a face one whole texel
+    /// off the group would be moved by that texel, away from the neighbours it shares vertices
+    /// with.
     fn accepts(&self, r: Rigid, sheet: u32, o: [f64; 2], c: [f64; 2]) -> bool {
         if r.mirror != self.mirror || sheet != self.sheet {
             return false;
@@ -137,10 +140,7 @@ impl Anchor {
         let a = self.unrotate(c);
         let b = self.linear().linear(o);
         let s = [a[0] - b[0], a[1] - b[1]];
-        (0..2).all(|k| {
-            let f = (s[k] - self.shift[k]).rem_euclid(1.0);
-            f.min(1.0 - f) <= FRAC_TOL
-        })
+        (0..2).all(|k| (s[k] - self.shift[k]).abs() <= FRAC_TOL)
     }
 }
 
@@ -328,7 +328,7 @@ mod tests {
     }
 
     #[test]
-    fn groups_split_by_fraction_and_pick_the_heaviest() {
+    fn groups_split_by_translation_and_pick_the_heaviest() {
         let t = tri();
         let mk = |face, shift: [f64; 2], area| {
             let c = moved(t, false, 0.5, shift);
@@ -341,11 +341,13 @@ mod tests {
                 area,
             }
         };
-        // Faces 0 and 1 share a transform up to an integer step of the unrotated frame; face 2 is
-        // half a texel off and heavier on its own, but lighter than 0 and 1 together.
+        // Faces 0 and 1 share a transform; face 2 is one whole step of the unrotated frame off
+        // and face 3 half a texel off, each heavier on its own than 0 or 1, but lighter than
+        // both together.
         let step = rot(0.5, [3.0, -2.0]);
-        let mut faces = vec![mk(0, [1.0, 2.0], 1.0), mk(1, [1.0 + step[0], 2.0 + step[1]], 1.0)];
-        faces.push(mk(2, [1.5, 2.0], 1.5));
+        let mut faces = vec![mk(0, [1.0, 2.0], 1.0), mk(1, [1.0, 2.0], 1.0)];
+        faces.push(mk(2, [1.0 + step[0], 2.0 + step[1]], 1.5));
+        faces.push(mk(3, [1.5, 2.0], 1.5));
         let (a, members) = best_group(&mut faces, 0.0).unwrap();
         assert_eq!(members, vec![0, 1]);
         assert_eq!(a.area, 2.0);

@@ -492,6 +492,7 @@ pub fn pack_layout(
     // (a') Texel clashes, separated chart by chart in parallel in the final frames (each chart's
     // result is a pure function of it), then applied and the frames refitted in chart order.
     let t = Instant::now();
+    let mut clashing_pairs = Vec::new();
     if opts.separate_texel_clashes {
         // The index of each UV vertex in its chart's vertex list.
         let mut vert_local = vec![0u32; input.vert_uv.len()];
@@ -511,7 +512,8 @@ pub fn pack_layout(
             .collect();
         for (&c, r) in packed.iter().zip(found) {
             report.texel_clashes += r.found;
-            report.texel_clashes_left += r.left;
+            report.texel_clashes_left += r.left.len();
+            clashing_pairs.extend_from_slice(&r.left);
             report.texel_clash_vertices_moved += r.moves.len();
             if r.moves.is_empty() {
                 continue;
@@ -669,6 +671,7 @@ pub fn pack_layout(
         sheet_sizes: sizes,
         face_preserved,
         chart_transform,
+        clashing_pairs,
         report,
     })
 }

@@ -100,6 +100,9 @@ pub struct PackReport {
     pub texel_clashes: usize,
     pub texel_clashes_left: usize,
     pub texel_clash_vertices_moved: usize,
+    /// Faces cut out of their charts (each packed as a chart of its own, and the atlas packed
+    /// again) because the moves left them clashing.
+    pub faces_detached: usize,
     /// Cells of all footprints (padding included).
     pub footprint_cells: u64,
     /// UV area of all packed faces over `texels`.
@@ -130,6 +133,9 @@ pub struct PackedLayout {
     /// Per chart: for anchored charts, the map from input texels of the chart's preserved source
     /// sheet to output texels of its output sheet.
     pub chart_transform: Vec<Option<GridTransform>>,
+    /// Pairs of faces (input ids, in chart order) that still cover the centre of a texel they did
+    /// not share in the input after the texel-clash step (`report.texel_clashes_left` of them).
+    pub clashing_pairs: Vec<[u32; 2]>,
     pub report: PackReport,
 }
 

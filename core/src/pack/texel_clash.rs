@@ -102,8 +102,8 @@ impl Start {
 pub(crate) struct ChartClashes {
     /// Clashing pairs before any move.
     pub found: usize,
-    /// Clashing pairs after the moves (counted again from scratch).
-    pub left: usize,
+    /// Clashing pairs after the moves (counted again from scratch), as input face ids.
+    pub left: Vec<[u32; 2]>,
     /// Moved vertices and their displacement in frame coordinates.
     pub moves: Vec<(u32, [f64; 2])>,
 }
@@ -535,7 +535,8 @@ pub(crate) fn separate(
         }
     }
     let moved = chart.pos != start.pos;
-    let left = if moved { chart.count_all().len() } else { found };
+    let left_local = if moved { chart.count_all() } else { pairs };
+    let left = left_local.iter().map(|&(f, g)| [faces[f as usize], faces[g as usize]]).collect();
     let moves = chart
         .pos
         .iter()

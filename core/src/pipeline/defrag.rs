@@ -255,7 +255,7 @@ pub fn defrag_with_progress(
     } else {
         progress(DefragStage::Pack);
         let t = Instant::now();
-        let (face_chart, unpacked) = packing_charts(&topo, &layout, model.sheets.len());
+        let (mut face_chart, unpacked) = packing_charts(&topo, &layout, model.sheets.len());
         let face_area_3d: Vec<f64> = model.face_ids().map(|f| area_3d(&model, f)).collect();
         let corner_vert: Vec<u32> = topo.corner_uv.iter().map(|v| v.0).collect();
         let n = layout.n_charts;
@@ -284,7 +284,42 @@ pub fn defrag_with_progress(
         let corner_vert: Vec<u32> = topo.corner_uv.iter().map(|v| v.0).collect();
         let li =
             layout_input(&topo, &corner_vert, &face_chart, &face_area_3d, n, &input_sheet_sizes);
-        let packed = pack_layout(&li, packer.as_ref(), &cfg.pack)?;
+        let mut packed = pack_layout(&li, packer.as_ref(), &cfg.pack)?;
+        if !packed.clashing_pairs.is_empty() {
+            // The last resort for texel clashes the sub-texel moves could not separate: one face
+            // of every such pair becomes a chart of its own, and the atlas is packed again.
+            let detach = faces_to_detach(&packed, &topo);
+            let mut n = n;
+            for &f in &detach {
+                topo.detach_face(f as usize);
+                face_chart[f as usize] = n as u32;
+                n += 1;
+            }
+            let corner_vert: Vec<u32> = topo.corner_uv.iter().map(|v| v.0).collect();
+            let li = layout_input(
+                &topo,
+                &corner_vert,
+                &face_chart,
+                &face_area_3d,
+                n,
+                &input_sheet_sizes,
+            );
+            let first = packed.report;
+            packed = pack_layout(&li, packer.as_ref(), &cfg.pack)?;
+            let r = &mut packed.report;
+            r.faces_detached = detach.len();
+            r.texel_clashes = first.texel_clashes;
+            r.texel_clash_vertices_moved += first.texel_clash_vertices_moved;
+            for (ms, first_ms) in [
+                (&mut r.anchors_ms, first.anchors_ms),
+                (&mut r.texel_clash_ms, first.texel_clash_ms),
+                (&mut r.footprints_ms, first.footprints_ms),
+                (&mut r.packing_ms, first.packing_ms),
+                (&mut r.finish_ms, first.finish_ms),
+            ] {
+                *ms += first_ms;
+            }
+        }
         times.pack_ms = ms(t);
 
         progress(DefragStage::Textures);
@@ -378,6 +413,26 @@ fn packing_charts(t: &Topology, layout: &MergedLayout, n_sheets: usize) -> (Vec<
         })
         .collect();
     (chart, unpacked)
+}
+
+/// One face of every pair the texel-clash step left clashing, to be cut out of its chart: a face
+/// copied verbatim keeps its place (the other is taken), then the smaller UV area goes; a face
+/// already taken settles every pair it is in. In pair order, so the choice is deterministic.
+fn faces_to_detach(packed: &PackedLayout, topo: &Topology) -> Vec<u32> {
+    let area = |f: u32| {
+        let [a, b, c] = [0, 1, 2].map(|k| topo.uv_pos[topo.corner_uv[3 * f as usize + k].idx()]);
+        crate::geometry::signed_area2([a, b, c]).abs()
+    };
+    let mut taken: Vec<u32> = Vec::new();
+    for &[f, g] in &packed.clashing_pairs {
+        if taken.contains(&f) || taken.contains(&g) {
+            continue;
+        }
+        let keep_f = (packed.face_preserved[f as usize], area(f))
+            > (packed.face_preserved[g as usize], area(g));
+        taken.push(if keep_f { g } else { f });
+    }
+    taken
 }
 
 /// The packing stage's view of the merged layout in `topo`.

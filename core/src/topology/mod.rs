@@ -376,4 +376,35 @@ impl Topology {
     pub fn sides_of_edge(&self, e: EdgeId) -> &[HalfEdgeId] {
         &self.edge_sides[self.edges[e.idx()].sides()]
     }
+
+    /// Gives corner `c` a UV vertex of its own at `uv`, in the chart of the vertex it had; the
+    /// caller cuts the UV sides that no longer share it.
+    pub fn split_corner(&mut self, c: usize, uv: [f64; 2]) -> UvVertId {
+        let v = UvVertId::from_usize(self.uv_pos.len());
+        self.uv_pos.push(uv);
+        self.uv_vpos.push(self.corner_pos[c]);
+        self.uv_chart.push(self.uv_chart[self.corner_uv[c].idx()]);
+        self.corner_uv[c] = v;
+        v
+    }
+
+    /// Makes half-edge `h` a UV border: it and its UV twin (if any) stop being twins.
+    pub fn cut_uv_side(&mut self, h: usize) {
+        let twin = self.he_uv_twin[h];
+        if !twin.is_none() {
+            self.he_uv_twin[twin.idx()] = HalfEdgeId::NONE;
+            self.he_uv_twin[h] = HalfEdgeId::NONE;
+        }
+    }
+
+    /// Cuts face `f` out of its UV chart: its three corners get UV vertices of their own at the
+    /// same positions and its three sides become borders. Its UVs do not move, so whatever was
+    /// written for it stays true; only the packing may now place it apart from its chart.
+    pub fn detach_face(&mut self, f: usize) {
+        for c in 3 * f..3 * f + 3 {
+            let uv = self.uv_pos[self.corner_uv[c].idx()];
+            self.split_corner(c, uv);
+            self.cut_uv_side(c);
+        }
+    }
 }

@@ -529,3 +529,30 @@ fn empty_model_prepares_to_nothing() {
     let t = build(&model(vec![], &[]));
     assert_eq!((t.report.faces, t.report.charts, t.report.mesh_edges, t.ops.len()), (0, 0, 0, 0));
 }
+
+#[test]
+fn a_detached_face_keeps_its_uvs_and_shares_nothing_with_its_chart() {
+    // One chart of 2×2 quads; face 3 touches faces 2 and 4 through UV sides.
+    let mut m = grid_model(2);
+    for j in 0..2 {
+        for i in 0..2 {
+            grid_quad(&mut m, 2, i, j, |x, y| [0.1 + 0.2 * x, 0.1 + 0.2 * y]);
+        }
+    }
+    let mut t = build(&m);
+    let before: Vec<[f64; 2]> = (0..3).map(|k| t.uv_pos[t.corner_uv[9 + k].idx()]).collect();
+    let (n_verts, chart) = (t.uv_pos.len(), t.uv_chart[t.corner_uv[9].idx()]);
+    let twins: Vec<usize> =
+        (9..12).filter_map(|h| t.he_uv_twin[h].get().map(|x| x.idx())).collect();
+    assert!(!twins.is_empty());
+    t.detach_face(3);
+    assert_eq!(t.uv_pos.len(), n_verts + 3);
+    for (k, &uv) in before.iter().enumerate() {
+        let v = t.corner_uv[9 + k];
+        assert_eq!(t.uv_pos[v.idx()], uv);
+        assert_eq!((t.uv_vpos[v.idx()], t.uv_chart[v.idx()]), (t.corner_pos[9 + k], chart));
+        assert!(t.he_uv_twin[9 + k].is_none());
+        assert!((0..t.corner_uv.len()).all(|c| c / 3 == 3 || t.corner_uv[c] != v));
+    }
+    assert!(twins.iter().all(|&h| t.he_uv_twin[h].is_none()), "the neighbours' sides are cut too");
+}
