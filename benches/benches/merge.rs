@@ -1,7 +1,8 @@
 //! The merge stage (greedy chart merges with the `paper` scorer and the `arap` solver) on a
 //! synthetic photogrammetry-like scan of about 200k faces: the serial baseline (one queue for the
-//! whole atlas) against the cluster-parallel scheduler (clusters of 65,536 faces, one solver per
-//! worker thread), each starting from a fresh copy of the same prepared topology.
+//! whole atlas, one thread) against the default (the same queue with a second engine judging
+//! ahead; the same result) and the cluster-parallel scheduler (clusters of 65,536 faces, one
+//! solver per worker thread), each starting from a fresh copy of the same prepared topology.
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -25,11 +26,11 @@ fn bench(c: &mut Criterion) {
     let r = registry();
     let scorer = scorer(&r);
     let threads = rayon::current_num_threads();
-    let serial = MergeOptions { cluster_faces: 0, ..MergeOptions::default() };
-    // The default cluster size (`DEFAULT_CLUSTER_FACES`) would leave a 200k-face scan in one
-    // cluster, so the bench uses clusters of 65,536 faces (four of them).
-    let parallel = MergeOptions { cluster_faces: 65_536, ..MergeOptions::default() };
-    let configs = [("serial", &serial, 1), ("parallel", &parallel, threads)];
+    let serial = MergeOptions { speculate: false, ..MergeOptions::default() };
+    let ahead = MergeOptions::default();
+    let clusters = MergeOptions { cluster_faces: 65_536, ..MergeOptions::default() };
+    let configs =
+        [("serial", &serial, 1), ("ahead", &ahead, threads), ("clusters", &clusters, threads)];
 
     // One run of each first, so the merge report can be read beside criterion's figures.
     for (name, opts, n) in configs {

@@ -142,9 +142,10 @@ fn judging_ahead_on_a_second_engine_merges_to_the_serial_bits() {
     let run = |solvers: usize| {
         let mut t = Topology::build(&model, &sheet_sizes(&model)).expect("valid model");
         let solvers = (0..solvers).map(|_| reg.solver("arap", &Params::new()).unwrap()).collect();
-        // One cluster for the whole model: the last (single-queue) round does all the work, with
-        // a shadow engine judging ahead when there are two solvers.
-        let opts = MergeOptions { cluster_faces: 1 << 30, ..Default::default() };
+        // The default: one queue for the whole model, with a shadow engine judging ahead when
+        // there are two solvers.
+        let opts = MergeOptions::default();
+        assert!(opts.speculate && opts.cluster_faces == 0);
         let (report, _) =
             merge_charts_parallel(&mut t, scorer.as_ref(), solvers, &opts).expect("valid options");
         (report, merged_model(&model, &t))

@@ -276,11 +276,13 @@ pub struct DefragArgs {
     /// Never retry an operation that failed (the paper's NoRetry ablation).
     #[arg(long)]
     pub no_retry: bool,
-    /// One merge queue for the whole atlas (the serial baseline of the parallel clusters).
+    /// One merge queue on one thread: the baseline (by default a second thread judges merges
+    /// ahead of the queue, with the same result).
     #[arg(long)]
     pub serial: bool,
-    /// Faces at which a cluster of charts stops growing (clusters come from the data, never
-    /// from --threads, so the output is the same for every thread count) [default: 300000].
+    /// Cut the chart graph into clusters of about N faces whose merge queues run in parallel,
+    /// then join them round by round (the result depends on N, never on --threads) [default: 0,
+    /// one queue for the whole atlas].
     #[arg(long, value_name = "N")]
     pub cluster_faces: Option<u32>,
     /// Write the merged UVs on the input sheets only: no packing, no new textures.

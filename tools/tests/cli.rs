@@ -343,40 +343,39 @@ fn defrag_output_is_the_same_for_every_thread_count() {
     let d = dir.path();
     let out = scanatlas(&["synth", "s", "--faces", "6000", "--sheet-size", "512", "-q"], d);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    // Small clusters, so that several rounds of parallel queues run.
-    for n in ["1", "2", "4"] {
-        let (model, report) = (format!("t{n}/out.obj"), format!("t{n}/r.json"));
-        let out = scanatlas(
-            &[
-                "--threads",
-                n,
-                "defrag",
-                "s/scan.obj",
-                "-o",
-                &model,
-                "--report",
-                &report,
-                "--cluster-faces",
-                "1000",
-                "-q",
-            ],
-            d,
-        );
-        assert!(out.status.success(), "{n}: {}", String::from_utf8_lossy(&out.stderr));
-    }
-    let rounds = report_without_times(&d.join("t1/r.json"))["merge"]["rounds"].clone();
-    assert!(rounds.as_array().is_some_and(|r| r.len() >= 2), "clusters ran: {rounds}");
-    for n in ["2", "4"] {
-        for f in ["out.obj", "out.mtl", "out_0.png"] {
-            let a = std::fs::read(d.join("t1").join(f)).unwrap();
-            let b = std::fs::read(d.join(format!("t{n}")).join(f)).unwrap();
-            assert!(a == b, "{f} differs between --threads 1 and {n}");
+    // The default (one queue, judged ahead on a second thread when there is one), `--serial`,
+    // and small clusters, so that several rounds of parallel queues run.
+    let setups: [(&str, &[&str]); 3] =
+        [("queue", &[]), ("serial", &["--serial"]), ("clusters", &["--cluster-faces", "1000"])];
+    for (name, flags) in setups {
+        for n in ["1", "2", "4"] {
+            let dir = format!("{name}{n}");
+            let (model, report) = (format!("{dir}/out.obj"), format!("{dir}/r.json"));
+            let args = ["--threads", n, "defrag", "s/scan.obj", "-o", &model, "--report", &report];
+            let out = scanatlas(&[&args[..], flags, &["-q"]].concat(), d);
+            assert!(out.status.success(), "{dir}: {}", String::from_utf8_lossy(&out.stderr));
         }
-        assert_eq!(
-            report_without_times(&d.join("t1/r.json")),
-            report_without_times(&d.join(format!("t{n}/r.json"))),
-            "reports differ between --threads 1 and {n}"
-        );
+        let first = report_without_times(&d.join(format!("{name}1/r.json")));
+        let rounds = first["merge"]["rounds"].as_array().map_or(0, |r| r.len());
+        assert_eq!(rounds >= 2, name == "clusters", "{name}: {rounds} rounds");
+        for n in ["2", "4"] {
+            for f in ["out.obj", "out.mtl", "out_0.png"] {
+                let a = std::fs::read(d.join(format!("{name}1")).join(f)).unwrap();
+                let b = std::fs::read(d.join(format!("{name}{n}")).join(f)).unwrap();
+                assert!(a == b, "{name}: {f} differs between --threads 1 and {n}");
+            }
+            assert_eq!(
+                first,
+                report_without_times(&d.join(format!("{name}{n}/r.json"))),
+                "{name}: reports differ between --threads 1 and {n}"
+            );
+        }
+    }
+    // One queue gives the serial output whether or not a second thread judges ahead.
+    for f in ["out.obj", "out_0.png"] {
+        let a = std::fs::read(d.join("queue2").join(f)).unwrap();
+        let b = std::fs::read(d.join("serial2").join(f)).unwrap();
+        assert!(a == b, "{f} differs between the default and --serial");
     }
 }
 

@@ -112,10 +112,10 @@ pub fn merge_charts_parallel(
         let mut solver = pool
             .pop()
             .ok_or(DefragError::BadOption { name: "threads", msg: "no solver to run" })?;
-        // The serial baseline (no clusters) stays on one thread; otherwise a second solver judges
-        // operations ahead of the queue (see `speculate`), with the same result.
+        // A second solver judges operations ahead of the queue (see `speculate`), with the same
+        // result; the serial baseline stays on one thread.
         master.report.stop = match pool.pop() {
-            Some(mut shadow_solver) if opts.cluster_faces > 0 => {
+            Some(mut shadow_solver) if opts.speculate => {
                 master.run_queue_speculative(scorer, &mut *solver, &mut *shadow_solver, deadline)
             }
             _ => master.run_queue(scorer, &mut *solver, None, deadline),

@@ -47,13 +47,6 @@ pub use zero_area::ZeroAreaReport;
 
 use crate::plugin::Veto;
 
-/// Default cluster size in faces. Operations on a cluster border wait for a later round, by
-/// which time the charts on both sides have grown and their merges cost more, so fewer, bigger
-/// clusters win on two cores: measured on venus (573k faces) 300k-face clusters merge in 10.3 s
-/// to 904 charts against 13.2 s and 932 charts with 65,536 (serial: 12.4 s, 920), and on a 1M-face
-/// synthetic scan in 93 s to 240 charts against 101 s and 232 (serial: 157 s, 236).
-pub const DEFAULT_CLUSTER_FACES: u32 = 300_000;
-
 /// The parameters of the merge stage, with the paper's defaults (§5, digest §4.5).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct MergeOptions {
@@ -86,9 +79,21 @@ pub struct MergeOptions {
     /// sides, so that no merge makes a chart that cannot be packed on a sheet (the packer would
     /// give it an oversized sheet of its own).
     pub max_chart_extent: f64,
-    /// The face count at which a cluster of charts stops growing (0: one queue for the whole
-    /// atlas, the serial baseline). Clusters come from the data alone, never from the thread count.
+    /// The face count at which a cluster of charts stops growing (0, the default: one queue for
+    /// the whole atlas). Clusters come from the data alone, never from the thread count, but they
+    /// change the result: operations on a cluster border wait for a later round.
+    ///
+    /// Why one queue is the default: with a second worker judging operations ahead of it
+    /// (`speculate`) it gives the serial result in less time than the clusters do on two cores.
+    /// Venus's merge stage, same run, medians of three: serial 10.4 s, one queue judged ahead
+    /// 7.1 s (336 charts, as serial), two clusters of 300k faces 9.4 s (333 charts): their first
+    /// round waits for the slower cluster (3.1 and 5.8 s) and the last round runs on one queue
+    /// anyway. Clusters remain for machines with many cores.
     pub cluster_faces: u32,
+    /// With a second solver (two or more threads), let a second engine judge operations further
+    /// down a whole-atlas queue while the first settles the top one (see `speculate`). The result
+    /// is the serial one bit for bit; off, the queue runs on one thread.
+    pub speculate: bool,
     /// Try every inter-chart merge first with the staying chart held still: the seam is fused
     /// where that chart has it and only the moving chart's side is re-optimized; if any check
     /// fails, the merge is tried again as the paper does (both sides, seam at the mean). The
@@ -114,7 +119,8 @@ impl Default for MergeOptions {
             max_area_grows: 1,
             solve_repair: true,
             max_chart_extent: 0.0,
-            cluster_faces: DEFAULT_CLUSTER_FACES,
+            cluster_faces: 0,
+            speculate: true,
             one_sided: true,
             one_sided_ration: 2.0,
         }

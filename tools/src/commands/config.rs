@@ -196,6 +196,7 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
             None => file.float(key)?.unwrap_or(default),
         })
     };
+    let serial = args.serial || file.flag("serial")?;
     let merge = MergeOptions {
         local_distortion: pick(
             args.local_distortion,
@@ -222,7 +223,8 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
             "one-sided-ration",
             defaults.one_sided_ration,
         )?,
-        cluster_faces: if args.serial || file.flag("serial")? {
+        speculate: !serial,
+        cluster_faces: if serial {
             0
         } else {
             match args.cluster_faces {
