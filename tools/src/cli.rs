@@ -308,6 +308,12 @@ pub struct DefragArgs {
     /// input) as they are (by default free vertices move by up to two texels to separate them).
     #[arg(long)]
     pub no_clash_separation: bool,
+    /// Make a rigid group of a chart other than its anchor a chart of its own (so its texels are
+    /// copied verbatim too) when the share of the atlas's 3-D area it brings back onto the input
+    /// grid is at least R times the share by which its seam lengthens the UV border (0: never)
+    /// [default: 1].
+    #[arg(long, value_name = "R")]
+    pub split_rigid: Option<f64>,
     /// Packer plugin (`horizon`, `skyline`) [default: horizon].
     #[arg(long)]
     pub packer: Option<String>,

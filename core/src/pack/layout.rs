@@ -362,6 +362,42 @@ pub fn anchor_faces(input: &LayoutInput, opts: &PackOptions) -> Result<Vec<bool>
     Ok(marked)
 }
 
+/// The rigid groups of every chart after its anchor group (the heaviest), each with at least
+/// `min_fraction` of its chart's 3-D area, as `(chart, chart's 3-D area, faces sorted)` in chart
+/// order, then by weight.
+/// Each such group copies its texels verbatim only if it becomes a chart of its own: the anchor
+/// can put one rigid group per chart back on the input grid.
+pub fn rigid_groups_beyond_anchor(
+    input: &LayoutInput,
+    opts: &PackOptions,
+    min_fraction: f64,
+) -> Result<Vec<(u32, f64, Vec<u32>)>, PackError> {
+    let vert_chart = validate(input, opts)?;
+    let (faces, _) = chart_lists(input, &vert_chart);
+    let found: Vec<Vec<(u32, f64, Vec<u32>)>> = (0..input.n_charts)
+        .into_par_iter()
+        .map(|c| {
+            let fs = faces.of(c);
+            if fs.is_empty() {
+                return Vec::new();
+            }
+            let (mut rigid, chart_area) = rigid_faces(input, fs, opts);
+            let min_area = opts.anchor_min_fraction * chart_area;
+            let groups = ranked_groups(&mut rigid, min_area, ANCHOR_TRIES);
+            groups
+                .into_iter()
+                .skip(1)
+                .filter(|(a, _)| a.area >= min_fraction * chart_area)
+                .map(|(_, mut faces)| {
+                    faces.sort_unstable();
+                    (c as u32, chart_area, faces)
+                })
+                .collect()
+        })
+        .collect();
+    Ok(found.into_iter().flatten().collect())
+}
+
 /// The rigid faces of one chart (largest area first), the chart's 3-D area and its heaviest
 /// anchor group, if any covers enough of it.
 struct ChartAnchors {

@@ -17,7 +17,7 @@ mod texel_clash;
 #[cfg(test)]
 mod tests;
 
-pub use layout::{anchor_faces, max_sheet_size, pack_layout};
+pub use layout::{anchor_faces, max_sheet_size, pack_layout, rigid_groups_beyond_anchor};
 
 use crate::geometry::GridTransform;
 use crate::plugin::PackerError;
@@ -59,6 +59,12 @@ pub struct PackOptions {
     /// Move free UV vertices by up to two texels so that no two faces of a chart cover the centre
     /// of a texel they did not share in the input (see `texel_clash`).
     pub separate_texel_clashes: bool,
+    /// Before packing, a rigid group of a chart other than its anchor group (at least
+    /// `anchor_min_fraction` of the chart) becomes a chart of its own when the fraction of the
+    /// atlas's 3-D area it would bring back onto the input grid is at least this many times the
+    /// fraction by which the seam it opens lengthens the atlas's UV border (0: never). See the
+    /// defrag pipeline's `rigid_split`.
+    pub split_rigid_ratio: f64,
 }
 
 impl Default for PackOptions {
@@ -69,6 +75,7 @@ impl Default for PackOptions {
             anchor_min_fraction: 0.05,
             rigid_tolerance: 1e-6,
             separate_texel_clashes: true,
+            split_rigid_ratio: 1.0,
         }
     }
 }
@@ -103,6 +110,8 @@ pub struct PackReport {
     /// Faces cut out of their charts (each packed as a chart of its own, and the atlas packed
     /// again) because the moves left them clashing.
     pub faces_detached: usize,
+    /// Rigid groups made charts of their own before packing (see `split_rigid_ratio`).
+    pub rigid_split: RigidSplitReport,
     /// Cells of all footprints (padding included).
     pub footprint_cells: u64,
     /// UV area of all packed faces over `texels`.
@@ -115,6 +124,21 @@ pub struct PackReport {
     pub footprints_ms: f64,
     pub packing_ms: f64,
     pub finish_ms: f64,
+}
+
+/// What the split of rigid groups before packing did (all zero when it is off).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct RigidSplitReport {
+    /// Rigid groups beyond the anchor, of at least `anchor_min_fraction` of their chart.
+    pub candidates: usize,
+    /// Those made charts of their own, and their faces (with the pieces of their chart that only
+    /// they held to the rest).
+    pub charts_made: usize,
+    pub faces_moved: usize,
+    /// The fraction of the atlas's 3-D area of the split groups, and the UV border the split
+    /// opened over the border before (both sides of each new seam).
+    pub area_fraction: f64,
+    pub border_fraction: f64,
 }
 
 /// The packed atlas.

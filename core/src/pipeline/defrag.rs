@@ -257,8 +257,22 @@ pub fn defrag_with_progress(
         let t = Instant::now();
         let (mut face_chart, unpacked) = packing_charts(&topo, &layout, model.sheets.len());
         let face_area_3d: Vec<f64> = model.face_ids().map(|f| area_3d(&model, f)).collect();
+        let mut n = layout.n_charts;
+        let rigid_split = if cfg.pack.split_rigid_ratio > 0.0 {
+            let split = super::rigid_split::split_rigid_groups(
+                &mut topo,
+                &mut face_chart,
+                &mut n,
+                &face_area_3d,
+                &input_sheet_sizes,
+                &cfg.pack,
+                merge.uv_border_after,
+            )?;
+            Some(split)
+        } else {
+            None
+        };
         let corner_vert: Vec<u32> = topo.corner_uv.iter().map(|v| v.0).collect();
-        let n = layout.n_charts;
         if let (Some(opts), false) = (&cfg.untangle, untangle_solvers.is_empty()) {
             let anchored = anchor_faces(
                 &layout_input(
@@ -274,7 +288,7 @@ pub fn defrag_with_progress(
             untangled = Some(untangle_charts(
                 &mut topo,
                 &face_chart,
-                layout.n_charts,
+                n,
                 &anchored,
                 &mut untangle_solvers,
                 opts,
@@ -291,7 +305,7 @@ pub fn defrag_with_progress(
             let detach = faces_to_detach(&packed, &topo);
             let mut n = n;
             for &f in &detach {
-                topo.detach_face(f as usize);
+                topo.detach_faces(&[f]);
                 face_chart[f as usize] = n as u32;
                 n += 1;
             }
@@ -319,6 +333,9 @@ pub fn defrag_with_progress(
             ] {
                 *ms += first_ms;
             }
+        }
+        if let Some(split) = rigid_split {
+            packed.report.rigid_split = split;
         }
         times.pack_ms = ms(t);
 
@@ -436,7 +453,7 @@ fn faces_to_detach(packed: &PackedLayout, topo: &Topology) -> Vec<u32> {
 }
 
 /// The packing stage's view of the merged layout in `topo`.
-fn layout_input<'a>(
+pub(super) fn layout_input<'a>(
     topo: &'a Topology,
     corner_vert: &'a [u32],
     face_chart: &'a [u32],

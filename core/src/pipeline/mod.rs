@@ -4,6 +4,7 @@
 pub mod build;
 pub mod convert;
 pub mod defrag;
+mod rigid_split;
 
 use std::path::{Path, PathBuf};
 

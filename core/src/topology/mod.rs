@@ -397,14 +397,29 @@ impl Topology {
         }
     }
 
-    /// Cuts face `f` out of its UV chart: its three corners get UV vertices of their own at the
-    /// same positions and its three sides become borders. Its UVs do not move, so whatever was
-    /// written for it stays true; only the packing may now place it apart from its chart.
-    pub fn detach_face(&mut self, f: usize) {
-        for c in 3 * f..3 * f + 3 {
-            let uv = self.uv_pos[self.corner_uv[c].idx()];
-            self.split_corner(c, uv);
-            self.cut_uv_side(c);
+    /// Cuts the faces `faces` (sorted, distinct) out of their UV chart together: each UV vertex
+    /// they use is replaced, for them, by a new one at the same position, and every side between
+    /// one of them and a face not in the list becomes a border. Their UVs do not move, so
+    /// whatever was written for them stays true; only the packing may now place them apart. A
+    /// vertex no other face used is left unused.
+    pub fn detach_faces(&mut self, faces: &[u32]) {
+        debug_assert!(faces.windows(2).all(|w| w[0] < w[1]), "faces sorted and distinct");
+        let mut renamed = rustc_hash::FxHashMap::default();
+        for &f in faces {
+            for c in 3 * f as usize..3 * f as usize + 3 {
+                let old = self.corner_uv[c];
+                match renamed.get(&old) {
+                    Some(&v) => self.corner_uv[c] = v,
+                    None => {
+                        let v = self.split_corner(c, self.uv_pos[old.idx()]);
+                        renamed.insert(old, v);
+                    }
+                }
+                let twin = self.he_uv_twin[c];
+                if !twin.is_none() && faces.binary_search(&(twin.face() as u32)).is_err() {
+                    self.cut_uv_side(c);
+                }
+            }
         }
     }
 }

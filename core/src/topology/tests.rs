@@ -545,7 +545,7 @@ fn a_detached_face_keeps_its_uvs_and_shares_nothing_with_its_chart() {
     let twins: Vec<usize> =
         (9..12).filter_map(|h| t.he_uv_twin[h].get().map(|x| x.idx())).collect();
     assert!(!twins.is_empty());
-    t.detach_face(3);
+    t.detach_faces(&[3]);
     assert_eq!(t.uv_pos.len(), n_verts + 3);
     for (k, &uv) in before.iter().enumerate() {
         let v = t.corner_uv[9 + k];

@@ -16,7 +16,7 @@ use super::UsageError;
 use crate::cli::{DefragArgs, parse_sheet_size};
 
 /// The top-level keys a config file may hold (besides the plugin tables).
-pub const TOP_LEVEL_KEYS: [&str; 22] = [
+pub const TOP_LEVEL_KEYS: [&str; 23] = [
     "matching-tolerance",
     "boundary-tolerance",
     "local-distortion",
@@ -30,6 +30,7 @@ pub const TOP_LEVEL_KEYS: [&str; 22] = [
     "merge-only",
     "no-untangle",
     "no-clash-separation",
+    "split-rigid",
     "no-solve-repair",
     "no-one-sided",
     "one-sided-ration",
@@ -293,6 +294,11 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
             None => base.jpeg_quality,
         },
     };
+    let split_rigid_ratio =
+        pick(args.split_rigid, "split-rigid", PackOptions::default().split_rigid_ratio)?;
+    if !(split_rigid_ratio.is_finite() && split_rigid_ratio >= 0.0) {
+        return Err(usage(format!("--split-rigid must be 0 or more, got {split_rigid_ratio}")));
+    }
     Ok(DefragConfig {
         merge,
         scorer,
@@ -306,6 +312,7 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
             max_sheet_size,
             separate_texel_clashes: !(args.no_clash_separation
                 || file.flag("no-clash-separation")?),
+            split_rigid_ratio,
             ..PackOptions::default()
         },
         texture_format: args.texture_format.map(super::defrag::image_format),
