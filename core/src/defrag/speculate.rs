@@ -115,6 +115,7 @@ impl Engine<'_> {
     ) -> StopReason {
         let mut queue = Queue::new();
         self.fill_queue(scorer, &mut queue, None);
+        let mut watermark = queue.len();
         let border_stop = self.opts.uv_border_target * self.border_len_input;
         let mut s = Pending {
             commits: Vec::new(),
@@ -165,6 +166,7 @@ impl Engine<'_> {
                 }
             }
             self.settle(op, result, scorer, &mut queue, None);
+            self.prune_queue(&mut queue, &mut watermark);
         };
         self.report.timings.judged_ahead += s.judged;
         stop
