@@ -119,13 +119,19 @@ impl FaceGrid {
     /// Adds face `f` with triangle `t` to every cell its bounding box touches.
     pub fn insert(&mut self, f: u32, t: &Tri2) {
         let ((x0, nx), (y0, ny)) = self.spans(tri_bbox(t));
+        self.entries += (nx * ny) as usize;
+        if nx == 1 && ny == 1 {
+            // Most triangles fit one cell (cells are two mean triangles across): no wrapping
+            // arithmetic, since `spans` returns first cells inside the grid.
+            self.cells[y0 as usize * self.nx as usize + x0 as usize].push(f);
+            return;
+        }
         for j in 0..ny {
             for i in 0..nx {
                 let c = self.cell_index(x0, i, y0, j);
                 self.cells[c].push(f);
             }
         }
-        self.entries += (nx * ny) as usize;
     }
 
     /// Appends to `out` every face with an entry in a cell that `bbox` touches, each once.

@@ -90,7 +90,7 @@ pub(crate) fn unfold_start(
                 // so sign · area2 ≥ min is (sign · n)·x ≥ min − sign · a×b.
                 let AreaBound { sign, min } = bounds[t as usize];
                 let n = [sign * (a[1] - b[1]), sign * (b[0] - a[0])];
-                let len = n[0].hypot(n[1]);
+                let len = crate::geometry::norm(n[0], n[1]);
                 if len.is_nan() || len <= 0.0 {
                     continue;
                 }

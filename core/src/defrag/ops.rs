@@ -78,7 +78,7 @@ pub(crate) struct OpGeometry {
 
 #[inline]
 pub(crate) fn dist(p: [f64; 2], q: [f64; 2]) -> f64 {
-    (p[0] - q[0]).hypot(p[1] - q[1])
+    crate::geometry::norm(p[0] - q[0], p[1] - q[1])
 }
 
 impl Engine<'_> {

@@ -99,7 +99,12 @@ impl Engine<'_> {
         let (to_shadow, shadow_rx) = channel::<ToShadow>();
         let (shadow_tx, from_shadow) = channel::<Judged>();
         std::thread::scope(|s| {
-            s.spawn(move || shadow_loop(&mut shadow, shadow_solver, shadow_rx, shadow_tx));
+            let shadow_loop = move || shadow_loop(&mut shadow, shadow_solver, shadow_rx, shadow_tx);
+            // Named for profilers; a thread that cannot be spawned leaves the master alone (its
+            // judgements are never taken: the channel is closed), still with the serial result.
+            let _ = std::thread::Builder::new()
+                .name("scanatlas-shadow".into())
+                .spawn_scoped(s, shadow_loop);
             // Dropping the sender on return ends the shadow's loop.
             self.speculative_loop(scorer, solver, to_shadow, &from_shadow, deadline)
         })

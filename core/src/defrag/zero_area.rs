@@ -426,6 +426,6 @@ impl Engine<'_> {
             self.t.uv_pos[self.t.corner_uv[h].idx()],
             self.t.uv_pos[self.t.corner_uv[3 * f + (h % 3 + 1) % 3].idx()],
         );
-        (b[0] - a[0]).hypot(b[1] - a[1])
+        crate::geometry::norm(b[0] - a[0], b[1] - a[1])
     }
 }

@@ -45,7 +45,7 @@ impl Rigid2 {
             .iter()
             .map(|&(p, q)| {
                 let m = self.apply(q);
-                (m[0] - p[0]).hypot(m[1] - p[1])
+                super::norm(m[0] - p[0], m[1] - p[1])
             })
             .sum();
         sum / pairs.len() as f64
@@ -83,7 +83,7 @@ pub fn rigid_fit(pairs: &[([f64; 2], [f64; 2])]) -> Rigid2 {
         dot += qx * px + qy * py;
         cross += qx * py - qy * px;
     }
-    let norm = dot.hypot(cross);
+    let norm = super::norm(dot, cross);
     let (cos, sin) =
         if norm > 0.0 && norm.is_finite() { (dot / norm, cross / norm) } else { (1.0, 0.0) };
     let translation = [pc[0] - (cos * qc[0] - sin * qc[1]), pc[1] - (sin * qc[0] + cos * qc[1])];

@@ -20,3 +20,27 @@ pub use predicates::{
     triangle_intersection_area, triangles_overlap, triangles_overlap_beyond_noise,
 };
 pub use svd::{Mat2, closest_rotation, singular_values, svd2, svd2_signed};
+
+/// The length of the vector `(x, y)`. The plain square root is exact to an ulp or two and several
+/// times cheaper than `hypot` (glibc's `hypot` was 2.7% of a whole venus run); `hypot` only
+/// guards the magnitudes where the squares would overflow or underflow.
+#[inline]
+pub fn norm(x: f64, y: f64) -> f64 {
+    let n = (x * x + y * y).sqrt();
+    if (1e-150..=1e150).contains(&n) { n } else { x.hypot(y) }
+}
+
+#[cfg(test)]
+mod norm_tests {
+    use super::norm;
+
+    #[test]
+    fn norm_matches_hypot_at_every_scale() {
+        for (x, y) in [(3.0, 4.0), (1e-200, 1e-200), (1e200, -1e200), (0.0, 0.0), (-5.0, 0.0)] {
+            let (n, h) = (norm(x, y), f64::hypot(x, y));
+            assert!((n - h).abs() <= 4.0 * f64::EPSILON * h, "{x} {y}: {n} vs {h}");
+        }
+        assert!(norm(f64::NAN, 1.0).is_nan());
+        assert_eq!(norm(f64::INFINITY, 1.0), f64::INFINITY);
+    }
+}

@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use super::PipelineError;
 use super::convert::output_sheet_path;
+use super::decode_ahead::DecodeAhead;
 use crate::defrag::{
     MergeOptions, MergeReport, MergedLayout, UntangleOptions, UntangleReport,
     merge_charts_parallel, merged_model, untangle_charts,
@@ -23,7 +24,7 @@ use crate::texture::coords::texel_to_uv;
 use crate::texture::encode::{EncodeOptions, write_image};
 use crate::texture::gutter::MAX_RADIUS;
 use crate::texture::resample::{FaceMapping, ResampleOptions, ResampleReport, resample_sheets};
-use crate::texture::{ImageFormat, TileStore, decode};
+use crate::texture::{ImageFormat, TileStore};
 use crate::topology::{PreparationReport, Topology};
 
 /// What to run and with which plugins.
@@ -218,6 +219,21 @@ pub fn defrag_with_progress(
     times.load_ms = ms(t);
     let in_sizes = super::sheet_sizes(&model);
 
+    let out_dir = match output.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    super::create_dir(&out_dir)?;
+    let work_dir = cfg.work_dir.clone().unwrap_or_else(|| out_dir.clone());
+    // The input sheets decode beside the preparation and the merge (see `decode_ahead`).
+    let decoding = if cfg.merge_only || model.sheets.is_empty() {
+        None
+    } else {
+        super::create_dir(&work_dir)?;
+        let sources = model.sheets.iter().map(|s| s.image.clone()).collect();
+        Some(DecodeAhead::start(sources, work_dir.clone()))
+    };
+
     progress(DefragStage::Prepare);
     let t = Instant::now();
     let mut topo = Topology::build(&model, &in_sizes)?;
@@ -238,11 +254,6 @@ pub fn defrag_with_progress(
     let (merge, layout) = merge_charts_parallel(&mut topo, scorer.as_ref(), solvers, &merge_opts)?;
     times.merge_ms = ms(t);
 
-    let out_dir = match output.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    super::create_dir(&out_dir)?;
     let mut protect = vec![input.to_path_buf()];
     protect.extend(model.sheets.iter().filter_map(|s| match &s.image {
         ImageSource::File(p) => Some(p.clone()),
@@ -341,8 +352,6 @@ pub fn defrag_with_progress(
 
         progress(DefragStage::Textures);
         let t = Instant::now();
-        let work_dir = cfg.work_dir.clone().unwrap_or_else(|| out_dir.clone());
-        super::create_dir(&work_dir)?;
         let format = match (cfg.texture_format, model.sheets.first()) {
             (Some(f), _) => f,
             (None, Some(s)) => ImageFormat::of_source(&s.image)?,
@@ -355,6 +364,7 @@ pub fn defrag_with_progress(
             &packed,
             output,
             &work_dir,
+            decoding,
             format,
             cfg,
             &protect,
@@ -493,6 +503,7 @@ fn synthesize(
     packed: &PackedLayout,
     output: &Path,
     work_dir: &Path,
+    decoding: Option<DecodeAhead>,
     format: ImageFormat,
     cfg: &DefragConfig,
     protect: &[PathBuf],
@@ -519,20 +530,25 @@ fn synthesize(
             exact,
         });
     }
-    // Each input sheet is decoded once into a disk-backed tile store (deleted on drop).
-    let inputs: Vec<TileStore> = model
-        .sheets
-        .iter()
-        .map(|s| decode::decode_to_store(&s.image, work_dir))
-        .collect::<Result<_, _>>()?;
+    // Each input sheet is decoded once into a disk-backed tile store (deleted on drop), by the
+    // decode started after loading.
+    let decoded = match decoding {
+        Some(d) => d.finish()?,
+        None => {
+            let sources = model.sheets.iter().map(|s| s.image.clone()).collect();
+            DecodeAhead::start(sources, work_dir.to_path_buf()).finish()?
+        }
+    };
+    let inputs: Vec<TileStore> = decoded.stores;
     let input_refs: Vec<&TileStore> = inputs.iter().collect();
     let opts = ResampleOptions {
         dilate: cfg.pack.padding.clamp(1, MAX_RADIUS),
         push_pull: true,
         work_dir: work_dir.to_path_buf(),
     };
-    let out = resample_sheets(&input_refs, &mappings, &packed.sheet_sizes, &opts)?;
+    let mut out = resample_sheets(&input_refs, &mappings, &packed.sheet_sizes, &opts)?;
     drop(inputs);
+    let t = Instant::now();
     let enc = EncodeOptions {
         format: Some(format),
         jpeg_quality: cfg.jpeg_quality,
@@ -544,6 +560,8 @@ fn synthesize(
         write_image(store, &path, &enc)?;
         paths.push(path);
     }
+    out.report.ms_encode = ms(t);
+    (out.report.ms_decode, out.report.ms_decode_wait) = (decoded.decode_ms, decoded.wait_ms);
     Ok((paths, Some(out.report)))
 }
 

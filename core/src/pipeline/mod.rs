@@ -3,6 +3,7 @@
 
 pub mod build;
 pub mod convert;
+mod decode_ahead;
 pub mod defrag;
 mod rigid_split;
 

@@ -348,7 +348,8 @@ pub(crate) fn chart_caches(
             let he = HalfEdgeId::from_usize(h);
             let (p, q) =
                 (uv.uv_pos[uv.corner_uv[h].idx()], uv.uv_pos[uv.corner_uv[he.next().idx()].idx()]);
-            charts[face_chart[h / 3].idx()].perimeter_uv += (q[0] - p[0]).hypot(q[1] - p[1]);
+            charts[face_chart[h / 3].idx()].perimeter_uv +=
+                crate::geometry::norm(q[0] - p[0], q[1] - p[1]);
         }
     }
     (charts, he_uv_twin)

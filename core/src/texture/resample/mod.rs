@@ -107,8 +107,16 @@ pub struct ResampleReport {
     pub ms_dilate: f64,
     /// Milliseconds of push-pull.
     pub ms_push_pull: f64,
-    /// Milliseconds in all.
+    /// Milliseconds in all (resampling only: decoding and encoding are timed apart).
     pub ms_total: f64,
+    /// Milliseconds decoding the input sheets into tile stores (set by the pipeline, whose
+    /// decode runs beside the earlier stages).
+    pub ms_decode: f64,
+    /// Milliseconds the texture stage waited for that decode (the part the earlier stages did
+    /// not hide).
+    pub ms_decode_wait: f64,
+    /// Milliseconds encoding and writing the output sheets (set by the pipeline).
+    pub ms_encode: f64,
     /// Texels written by faces per microsecond of the raster stage (Mtexel/s).
     pub raster_mtexel_per_s: f64,
     /// Output texels per microsecond of the whole run (Mtexel/s).
