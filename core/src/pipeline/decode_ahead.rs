@@ -18,7 +18,9 @@ use crate::texture::{TextureError, TileStore, decode};
 type Decoded = Result<(Vec<TileStore>, f64), TextureError>;
 
 /// A decode of every input sheet running beside the pipeline. Dropping it (an early error return)
-/// waits for the thread and deletes whatever it decoded, so no tile file outlives the run.
+/// waits for the thread and deletes whatever it decoded, so no tile file outlives the run. The
+/// default decodes nothing (a run that writes no texture).
+#[derive(Default)]
 pub(super) struct DecodeAhead {
     state: Option<State>,
 }
@@ -51,6 +53,9 @@ fn decode_all(sheets: &[ImageSource], work_dir: &std::path::Path) -> Decoded {
 impl DecodeAhead {
     /// Starts decoding `sheets` into tile stores under `work_dir`.
     pub fn start(sheets: Vec<ImageSource>, work_dir: PathBuf) -> Self {
+        if sheets.is_empty() {
+            return Self::default();
+        }
         // The sources are cheap to copy (paths, or shared embedded bytes).
         let (s, w) = (sheets.clone(), work_dir.clone());
         let spawned = std::thread::Builder::new()

@@ -226,12 +226,12 @@ pub fn defrag_with_progress(
     super::create_dir(&out_dir)?;
     let work_dir = cfg.work_dir.clone().unwrap_or_else(|| out_dir.clone());
     // The input sheets decode beside the preparation and the merge (see `decode_ahead`).
-    let decoding = if cfg.merge_only || model.sheets.is_empty() {
-        None
+    let decoding = if cfg.merge_only {
+        DecodeAhead::default()
     } else {
         super::create_dir(&work_dir)?;
-        let sources = model.sheets.iter().map(|s| s.image.clone()).collect();
-        Some(DecodeAhead::start(sources, work_dir.clone()))
+        let sources: Vec<_> = model.sheets.iter().map(|s| s.image.clone()).collect();
+        DecodeAhead::start(sources, work_dir.clone())
     };
 
     progress(DefragStage::Prepare);
@@ -358,7 +358,6 @@ pub fn defrag_with_progress(
             (None, None) => ImageFormat::Png,
         };
         let (sheets, resample) = synthesize(
-            &model,
             &topo,
             &face_chart,
             &packed,
@@ -493,17 +492,17 @@ fn area_3d(model: &Model, f: crate::index::FaceId) -> f64 {
     0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt()
 }
 
-/// Decodes every input sheet once, resamples the packed layout and writes the output sheets.
+/// Takes the input sheets from `decoding`, resamples the packed layout and writes the output
+/// sheets.
 /// Returns the written sheet paths (in output sheet order) and the resample report.
 #[allow(clippy::too_many_arguments)]
 fn synthesize(
-    model: &Model,
     t: &Topology,
     face_chart: &[u32],
     packed: &PackedLayout,
     output: &Path,
     work_dir: &Path,
-    decoding: Option<DecodeAhead>,
+    decoding: DecodeAhead,
     format: ImageFormat,
     cfg: &DefragConfig,
     protect: &[PathBuf],
@@ -532,13 +531,7 @@ fn synthesize(
     }
     // Each input sheet is decoded once into a disk-backed tile store (deleted on drop), by the
     // decode started after loading.
-    let decoded = match decoding {
-        Some(d) => d.finish()?,
-        None => {
-            let sources = model.sheets.iter().map(|s| s.image.clone()).collect();
-            DecodeAhead::start(sources, work_dir.to_path_buf()).finish()?
-        }
-    };
+    let decoded = decoding.finish()?;
     let inputs: Vec<TileStore> = decoded.stores;
     let input_refs: Vec<&TileStore> = inputs.iter().collect();
     let opts = ResampleOptions {
