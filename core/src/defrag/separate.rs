@@ -131,6 +131,24 @@ impl Engine<'_> {
             return false;
         }
         let reach = STEPS[STEPS.len() - 1] * scale;
+        let p0 = self.t.uv_pos[v as usize];
+        // The box each fan face can sweep while v moves within `reach` (a hair wider, so that no
+        // rounding of a trial position can leave it): a face that stays put outside it can never
+        // overlap that fan face, and the pair need not be tested at any of the trial positions.
+        let margin = reach * (1.0 + 1e-9) + 1e-12 * (p0[0].abs() + p0[1].abs());
+        let disc = [p0[0] - margin, p0[1] - margin, p0[0] + margin, p0[1] + margin];
+        self.sep_swept.clear();
+        for i in 0..self.sep_faces.len() {
+            let f = self.sep_faces[i] as usize;
+            let mut b = disc;
+            for k in 0..3 {
+                if self.t.corner_uv[3 * f + k].0 != v {
+                    let q = self.t.uv_pos[self.t.corner_uv[3 * f + k].0 as usize];
+                    b = [b[0].min(q[0]), b[1].min(q[1]), b[2].max(q[0]), b[3].max(q[1])];
+                }
+            }
+            self.sep_swept.push(b);
+        }
         self.candidates.clear();
         self.grid.query(
             [bbox[0] - reach, bbox[1] - reach, bbox[2] + reach, bbox[3] + reach],
@@ -144,28 +162,37 @@ impl Engine<'_> {
         self.sep_static.clear();
         for i in 0..self.sep_faces.len() {
             let f = self.sep_faces[i] as usize;
+            let (chart, before) = (self.t.face_chart[f], self.tri_before(f));
             for j in 0..self.candidates.len() {
                 let s = self.candidates[j] as usize;
                 let cs = self.t.face_chart[s];
                 if s == f || (cs != g.a && cs != g.b) {
                     continue;
                 }
-                let tolerated = cs == self.t.face_chart[f]
-                    && triangles_overlap_beyond_noise(self.tri_before(f), self.tri_before(s));
+                let other = match self.sep_faces.iter().position(|&x| x as usize == s) {
+                    Some(k) => (Other::Fan(k as u32), None),
+                    None => {
+                        let (tri, w) = (self.tri(s), self.sep_swept[i]);
+                        let b = tri_bbox(&tri);
+                        // As `triangles_overlap` reads boxes: touching ones do not overlap.
+                        if b[2] <= w[0] || w[2] <= b[0] || b[3] <= w[1] || w[3] <= b[1] {
+                            continue;
+                        }
+                        (Other::Static(self.sep_static.len() as u32), Some(tri))
+                    }
+                };
+                let tolerated =
+                    cs == chart && triangles_overlap_beyond_noise(before, self.tri_before(s));
                 if tolerated {
                     continue;
                 }
-                let other = match self.sep_faces.iter().position(|&x| x as usize == s) {
-                    Some(k) => Other::Fan(k as u32),
-                    None => {
-                        self.sep_static.push(self.tri(s));
-                        Other::Static(self.sep_static.len() as u32 - 1)
-                    }
-                };
+                let (other, tri) = other;
+                if let Some(tri) = tri {
+                    self.sep_static.push(tri);
+                }
                 self.sep_tests.push((i as u32, other));
             }
         }
-        let p0 = self.t.uv_pos[v as usize];
         self.fan_tris_now();
         // The overlapping pairs go first: a move must undo some of them before the others are
         // worth testing, and it must undo more than it creates.
@@ -180,11 +207,14 @@ impl Engine<'_> {
             return false;
         }
         let limit = MAX_ENERGY.max(self.energy_around());
+        let directions: [(f64, f64); DIRECTIONS] = std::array::from_fn(|d| {
+            let a = std::f64::consts::TAU * d as f64 / DIRECTIONS as f64;
+            (a.cos(), a.sin())
+        });
         for step in STEPS {
             let mut best: Option<([f64; 2], f64)> = None;
-            for d in 0..DIRECTIONS {
-                let a = std::f64::consts::TAU * d as f64 / DIRECTIONS as f64;
-                let p = [p0[0] + step * scale * a.cos(), p0[1] + step * scale * a.sin()];
+            for (cos, sin) in directions {
+                let p = [p0[0] + step * scale * cos, p0[1] + step * scale * sin];
                 self.t.uv_pos[v as usize] = p;
                 self.fan_tris_now();
                 if !self.faces_keep_orientation() {

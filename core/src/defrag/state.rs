@@ -106,6 +106,8 @@ pub(crate) struct Engine<'t> {
     /// The triangles of the faces around the moving vertex, and of the faces that stay put.
     pub sep_fan_tris: Vec<Tri2>,
     pub sep_static: Vec<Tri2>,
+    /// The box each fan face can sweep while its vertex moves (see `separate_vertex`).
+    pub sep_swept: Vec<[f64; 4]>,
     pub kernel: super::kernel::KernelScratch,
     /// While `record_checks` is set, the energies of every budget check (out, in), so that a
     /// speculative attempt can be judged again against another atlas sum (see `speculate`).
@@ -375,6 +377,7 @@ impl<'t> Engine<'t> {
             sep_tests: Vec::new(),
             sep_fan_tris: Vec::new(),
             sep_static: Vec::new(),
+            sep_swept: Vec::new(),
             kernel: Default::default(),
             base_fixed: Vec::new(),
             record_checks: false,

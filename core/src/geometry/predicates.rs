@@ -166,19 +166,23 @@ pub fn triangle_intersection_area(t1: Tri2, t2: Tri2) -> f64 {
         return 0.0;
     }
     let sign = s1.signum();
-    // A triangle clipped by three half-planes has at most 6 vertices; 9 leaves room.
-    let mut poly = [[0.0f64; 2]; 9];
+    // A triangle clipped by three half-planes has at most 6 vertices; 9 leaves room. The clip
+    // alternates between two buffers, and each vertex's side is evaluated once per half-plane.
+    let mut buf = [[[0.0f64; 2]; 9]; 2];
+    buf[0][..3].copy_from_slice(&t2);
     let mut n = 3;
-    poly[..3].copy_from_slice(&t2);
-    let mut next = [[0.0f64; 2]; 9];
     for i in 0..3 {
         let (a, b) = (t1[i], t1[(i + 1) % 3]);
-        let side =
-            |p: [f64; 2]| sign * ((b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]));
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let side = |p: [f64; 2]| sign * (dx * (p[1] - a[1]) - dy * (p[0] - a[0]));
+        let [even, odd] = &mut buf;
+        let (poly, next) = if i % 2 == 0 { (&*even, odd) } else { (&*odd, even) };
+        let s0 = side(poly[0]);
+        let mut sp = s0;
         let mut m = 0;
         for k in 0..n {
-            let (p, q) = (poly[k], poly[(k + 1) % n]);
-            let (sp, sq) = (side(p), side(q));
+            let p = poly[k];
+            let (q, sq) = if k + 1 == n { (poly[0], s0) } else { (poly[k + 1], side(poly[k + 1])) };
             if sp >= 0.0 {
                 next[m] = p;
                 m += 1;
@@ -188,16 +192,18 @@ pub fn triangle_intersection_area(t1: Tri2, t2: Tri2) -> f64 {
                 next[m] = [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])];
                 m += 1;
             }
+            sp = sq;
         }
         n = m.min(next.len());
-        poly[..n].copy_from_slice(&next[..n]);
         if n < 3 {
             return 0.0;
         }
     }
+    // Three clips (an odd number): the result is in the second buffer.
+    let poly = &buf[1];
     let mut area2 = 0.0;
     for k in 0..n {
-        let (p, q) = (poly[k], poly[(k + 1) % n]);
+        let (p, q) = (poly[k], if k + 1 == n { poly[0] } else { poly[k + 1] });
         area2 += p[0] * q[1] - p[1] * q[0];
     }
     0.5 * area2.abs()
