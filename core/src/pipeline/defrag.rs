@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use super::PipelineError;
+use super::background::Background;
 use super::convert::output_sheet_path;
 use super::decode_ahead::DecodeAhead;
 use crate::defrag::{
@@ -215,9 +216,19 @@ pub fn defrag_with_progress(
 
     progress(DefragStage::Load);
     let t = Instant::now();
-    let model = super::load_model(input)?;
+    let model = std::sync::Arc::new(super::load_model(input)?);
     times.load_ms = ms(t);
     let in_sizes = super::sheet_sizes(&model);
+    // The input's figures for the report are computed on idle CPU time (see `background`).
+    let texels: u64 =
+        in_sizes.iter().flatten().map(|&(w, h)| u64::from(w) * u64::from(h)).sum::<u64>();
+    let overlaps =
+        cfg.metrics_overlaps.unwrap_or_else(|| overlaps_are_cheap(model.faces.len(), texels));
+    let stats_opts = StatsOptions { overlaps };
+    let input_stats = {
+        let (model, in_sizes) = (model.clone(), in_sizes.clone());
+        Background::start("scanatlas-stats", move || atlas_stats(&model, &in_sizes, &stats_opts))
+    };
 
     let out_dir = match output.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
@@ -380,20 +391,9 @@ pub fn defrag_with_progress(
 
     progress(DefragStage::Metrics);
     let t = Instant::now();
-    let texels: u64 =
-        in_sizes.iter().flatten().map(|&(w, h)| u64::from(w) * u64::from(h)).sum::<u64>();
-    let overlaps =
-        cfg.metrics_overlaps.unwrap_or_else(|| overlaps_are_cheap(model.faces.len(), texels));
-    let stats_opts = StatsOptions { overlaps };
-    // The two sides are independent: measure them at once.
-    let (input_stats, output_stats) = rayon::join(
-        || atlas_stats(&model, &in_sizes, &stats_opts),
-        || {
-            super::load_model(output)
-                .map(|written| atlas_stats(&written, &super::sheet_sizes(&written), &stats_opts))
-        },
-    );
-    let output_stats = output_stats?;
+    let written = super::load_model(output)?;
+    let output_stats = atlas_stats(&written, &super::sheet_sizes(&written), &stats_opts);
+    let (input_stats, _) = input_stats.finish();
     times.metrics_ms = ms(t);
     times.total_ms = ms(t_all);
     Ok(DefragReport {

@@ -1,6 +1,7 @@
 //! Stage orchestration shared by the subcommands: loading a model with its sheet sizes, converting
 //! between formats through the tile store, and the errors and reports of whole runs.
 
+mod background;
 pub mod build;
 pub mod convert;
 mod decode_ahead;
