@@ -17,6 +17,13 @@
 //! The shadow keeps up by replaying each of the master's commits from a record of the slots it
 //! wrote (`Engine::apply_record`), in the master's order, so its state after `at` replays is the
 //! master's after `at` commits, bit for bit.
+//!
+//! The shadow judges its requests most urgent first (by queue key, so the one the master reaches
+//! soonest goes first, whatever order they were asked in), after replaying every commit sent
+//! before it, and drops unjudged a request that a commit since has touched (its judgement could
+//! never be taken). First come, first served left the master waiting for the top operation behind
+//! requests further down, and spent the shadow on judgements already overturned (venus, merge
+//! stage, six rounds alternating on a noisy machine: median 4.54 s first come, 4.41 s by key).
 
 use std::cmp::Reverse;
 use std::sync::mpsc::{Receiver, Sender, channel};
@@ -25,7 +32,7 @@ use std::time::Instant;
 use super::attempt::CommitRecord;
 use super::greedy::Queue;
 use super::ops::EngineOp;
-use super::state::Engine;
+use super::state::{Engine, OrdF64};
 use super::{MergeReport, RejectReason, StopReason};
 use crate::plugin::{LocalSolver, MergeScorer};
 use crate::topology::ChartId;
@@ -44,12 +51,34 @@ const MAX_IN_FLIGHT: usize = 4;
 /// (the master waits longer for the top one: 1.5–2.1 s in all against 0.1–0.4 s).
 const LOOK_AHEAD: usize = 64;
 
+/// The queue key of an entry (see `greedy::Queue`): the larger, the sooner the master settles it.
+type Key = (OrdF64, Reverse<u32>, u32);
+
 /// What the master sends the shadow, in order.
 enum ToShadow {
     /// A commit of the master, to replay.
     Replay(Box<CommitRecord>),
-    /// An operation to judge (its table entry as the master has it).
-    Judge { op: u32, version: u32, entry: EngineOp },
+    /// An operation to judge (its table entry as the master has it, its queue key, its charts,
+    /// and the master's commit count when it was asked for).
+    Judge(Box<Request>),
+}
+
+/// An operation the shadow is asked to judge.
+struct Request {
+    op: u32,
+    version: u32,
+    entry: EngineOp,
+    key: Key,
+    charts: (ChartId, ChartId),
+    at: usize,
+}
+
+/// What the shadow sends back: a judgement, or word that a request was dropped unjudged because
+/// a commit made since it was asked for touched one of its charts (its judgement could never be
+/// taken).
+enum FromShadow {
+    Judged(Box<Judged>),
+    Dropped { op: u32, version: u32 },
 }
 
 /// A judgement of the shadow.
@@ -102,7 +131,7 @@ impl Engine<'_> {
         let (mut topo, parts) = rayon::join(|| (self.t.clone(), self.parts()), || ()).0;
         let mut shadow = Engine::assemble(&mut topo, self.opts.clone(), parts);
         let (to_shadow, shadow_rx) = channel::<ToShadow>();
-        let (shadow_tx, from_shadow) = channel::<Judged>();
+        let (shadow_tx, from_shadow) = channel::<FromShadow>();
         std::thread::scope(|s| {
             let shadow_loop = move || shadow_loop(&mut shadow, shadow_solver, shadow_rx, shadow_tx);
             // Named for profilers; a thread that cannot be spawned leaves the master alone (its
@@ -120,7 +149,7 @@ impl Engine<'_> {
         scorer: &dyn MergeScorer,
         solver: &mut dyn LocalSolver,
         to_shadow: Sender<ToShadow>,
-        from_shadow: &Receiver<Judged>,
+        from_shadow: &Receiver<FromShadow>,
         deadline: Option<Instant>,
     ) -> StopReason {
         let mut queue = Queue::new();
@@ -190,7 +219,7 @@ impl Engine<'_> {
         queue: &mut Queue,
         charts: (ChartId, ChartId),
         s: &Pending,
-    ) -> Option<(u32, u32, (ChartId, ChartId))> {
+    ) -> Option<(Key, (ChartId, ChartId))> {
         let mut looked = Vec::with_capacity(LOOK_AHEAD);
         let mut found = None;
         while looked.len() < LOOK_AHEAD {
@@ -205,7 +234,7 @@ impl Engine<'_> {
             let known = s.done.iter().any(|j| (j.op, j.version) == (op, version))
                 || s.in_flight.iter().any(|f| (f.op, f.version) == (op, version));
             if !known && !share(c, charts) && !s.in_flight.iter().any(|f| share(f.charts, c)) {
-                found = Some((op, version, c));
+                found = Some((entry, c));
                 break;
             }
         }
@@ -219,13 +248,16 @@ impl Engine<'_> {
     fn dispatch(&self, queue: &mut Queue, charts: (ChartId, ChartId), s: &mut Pending) {
         while s.in_flight.len() < MAX_IN_FLIGHT {
             let Some(tx) = &s.to_shadow else { return };
-            let Some((op, version, c)) = self.pick(queue, charts, s) else { return };
+            let Some((key, c)) = self.pick(queue, charts, s) else { return };
+            let (_, Reverse(op), version) = key;
+            let at = s.commits.len();
             let entry = self.ops[op as usize].clone();
-            if tx.send(ToShadow::Judge { op, version, entry }).is_err() {
+            let request = Request { op, version, entry, key, charts: c, at };
+            if tx.send(ToShadow::Judge(Box::new(request))).is_err() {
                 s.to_shadow = None;
                 return;
             }
-            s.in_flight.push(InFlight { op, version, at: s.commits.len(), charts: c });
+            s.in_flight.push(InFlight { op, version, at, charts: c });
         }
     }
 
@@ -241,7 +273,7 @@ impl Engine<'_> {
         queue: &mut Queue,
         s: &mut Pending,
         solver: &mut dyn LocalSolver,
-        from_shadow: &Receiver<Judged>,
+        from_shadow: &Receiver<FromShadow>,
     ) -> Option<Judged> {
         loop {
             if let Some(i) = s.done.iter().position(|j| (j.op, j.version) == (op, version)) {
@@ -262,7 +294,7 @@ impl Engine<'_> {
                 self.dispatch(queue, charts, s);
                 continue;
             }
-            if let Some((other, v, c)) = self.pick(queue, charts, s) {
+            if let Some(((_, Reverse(other), v), c)) = self.pick(queue, charts, s) {
                 let j = self.judge(other, v, c, s.commits.len(), solver);
                 s.judged += 1;
                 s.done.push(j);
@@ -319,39 +351,94 @@ struct Pending {
 }
 
 impl Pending {
-    fn receive(&mut self, j: Judged) {
-        self.judged += 1;
-        self.in_flight.retain(|f| (f.op, f.version) != (j.op, j.version));
-        self.done.push(j);
+    fn receive(&mut self, msg: FromShadow) {
+        match msg {
+            FromShadow::Judged(j) => {
+                self.judged += 1;
+                self.in_flight.retain(|f| (f.op, f.version) != (j.op, j.version));
+                self.done.push(*j);
+            }
+            FromShadow::Dropped { op, version } => {
+                self.in_flight.retain(|f| (f.op, f.version) != (op, version));
+            }
+        }
     }
 }
 
-/// The shadow's side: replays the master's commits and judges what it is asked to, in order.
+/// The shadow's side: replays the master's commits in order and judges what it is asked to,
+/// the most urgent request first (the one the master will settle soonest, by queue key), after
+/// every commit sent before it. A request that a commit made since it was asked for has touched
+/// could never be taken: it is dropped unjudged, and the master told.
 fn shadow_loop(
     shadow: &mut Engine<'_>,
     solver: &mut dyn LocalSolver,
     rx: Receiver<ToShadow>,
-    tx: Sender<Judged>,
+    tx: Sender<FromShadow>,
 ) {
-    let mut at = 0;
-    for msg in rx {
-        match msg {
-            ToShadow::Replay(r) => {
-                shadow.apply_record(&r);
-                at += 1;
-            }
-            ToShadow::Judge { op, version, entry } => {
-                let o = op as usize;
-                if shadow.ops.len() <= o {
-                    shadow.ops.resize(o + 1, entry.clone());
-                }
-                shadow.ops[o] = entry;
-                let charts = shadow.op_charts(op);
-                let judged = shadow.judge(op, version, charts, at, solver);
-                if tx.send(judged).is_err() {
-                    return;
-                }
+    // The charts of every commit replayed so far, in order.
+    let mut commits: Vec<(ChartId, ChartId)> = Vec::new();
+    let mut pending: Vec<Request> = Vec::new();
+    let mut open = true;
+    loop {
+        // Wait only when there is nothing to judge; then take everything that has arrived, so
+        // the choice below sees every request and every commit sent so far.
+        if pending.is_empty() {
+            match rx.recv() {
+                Ok(msg) => take(shadow, &mut commits, &mut pending, msg),
+                Err(_) => return,
             }
         }
+        while open {
+            match rx.try_recv() {
+                Ok(msg) => take(shadow, &mut commits, &mut pending, msg),
+                Err(std::sync::mpsc::TryRecvError::Empty) => break,
+                Err(std::sync::mpsc::TryRecvError::Disconnected) => open = false,
+            }
+        }
+        if !open {
+            // The master is done: nothing judged now could be taken.
+            return;
+        }
+        let mut dropped = Vec::new();
+        pending.retain(|r| {
+            let live = untouched(r.charts, &commits[r.at.min(commits.len())..]);
+            if !live {
+                dropped.push((r.op, r.version));
+            }
+            live
+        });
+        for (op, version) in dropped {
+            if tx.send(FromShadow::Dropped { op, version }).is_err() {
+                return;
+            }
+        }
+        let Some(i) = (0..pending.len()).max_by_key(|&i| pending[i].key) else { continue };
+        let Request { op, version, entry, .. } = pending.swap_remove(i);
+        let o = op as usize;
+        if shadow.ops.len() <= o {
+            shadow.ops.resize(o + 1, entry.clone());
+        }
+        shadow.ops[o] = entry;
+        let charts = shadow.op_charts(op);
+        let judged = shadow.judge(op, version, charts, commits.len(), solver);
+        if tx.send(FromShadow::Judged(Box::new(judged))).is_err() {
+            return;
+        }
+    }
+}
+
+/// Takes one message of the master: a commit is replayed at once, a request is kept.
+fn take(
+    shadow: &mut Engine<'_>,
+    commits: &mut Vec<(ChartId, ChartId)>,
+    pending: &mut Vec<Request>,
+    msg: ToShadow,
+) {
+    match msg {
+        ToShadow::Replay(r) => {
+            shadow.apply_record(&r);
+            commits.push((r.g.a, r.g.b));
+        }
+        ToShadow::Judge(r) => pending.push(*r),
     }
 }
