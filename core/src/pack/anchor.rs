@@ -67,10 +67,20 @@ pub(crate) fn rigid_image(orig: [[f64; 2]; 3], cur: [[f64; 2]; 3], tol: f64) -> 
     }
     let angle = sc.atan2(sd);
     let limit = tol * size.max(1.0);
+    let (s, c) = angle.sin_cos();
     for k in 0..3 {
-        let r = rot(angle, sub(o[k], co));
+        // `rot(angle, ·)` with the sine and cosine taken once.
+        let a = sub(o[k], co);
+        let r = [c * a[0] - s * a[1], s * a[0] + c * a[1]];
         let b = sub(cur[k], cc);
-        if (r[0] - b[0]).hypot(r[1] - b[1]) > limit {
+        let (dx, dy) = ((r[0] - b[0]).abs(), (r[1] - b[1]).abs());
+        // hypot(dx, dy) lies between max(dx, dy) and dx + dy: the bounds settle nearly every
+        // corner (a rigid face misses by rounding only, a deformed one by far), and only a
+        // distance near the limit takes the square root.
+        if dx.max(dy) > limit {
+            return None;
+        }
+        if dx + dy > 0.5 * limit && dx.hypot(dy) > limit {
             return None;
         }
     }
