@@ -160,10 +160,16 @@ fn deepest_point(planes: &[([f64; 2], f64)]) -> Option<([f64; 2], f64)> {
     for i in 0..m {
         for j in i + 1..m {
             for k in j + 1..m {
-                // n·x − t = c for the three planes.
+                // n·x − t = c for the three planes. The depth t comes first: most bases are no
+                // deeper than the best so far, and for them x is never needed.
                 let rows = [planes[i], planes[j], planes[k]];
-                let Some((x, t)) = solve3(rows) else { continue };
-                if best.is_some_and(|(_, bt)| t <= bt) {
+                let Some(cramer) = Cramer::new(rows) else { continue };
+                let t = cramer.col(2);
+                if !t.is_finite() || best.is_some_and(|(_, bt)| t <= bt) {
+                    continue;
+                }
+                let x = [cramer.col(0), cramer.col(1)];
+                if !(x[0].is_finite() && x[1].is_finite()) {
                     continue;
                 }
                 let tol = 1e-9 * (1.0 + x[0].abs() + x[1].abs());
@@ -176,28 +182,42 @@ fn deepest_point(planes: &[([f64; 2], f64)]) -> Option<([f64; 2], f64)> {
     best
 }
 
-/// Solves n_r·x − t = c_r for r = 0..3 by Cramer's rule; `None` when singular.
-fn solve3(rows: [([f64; 2], f64); 3]) -> Option<([f64; 2], f64)> {
-    let a = rows.map(|(n, _)| [n[0], n[1], -1.0]);
-    let b = rows.map(|(_, c)| c);
-    let det3 = |m: [[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
-    };
-    let d = det3(a);
-    if d.is_nan() || d.abs() <= 1e-12 {
-        return None;
-    }
-    let col = |c: usize| {
-        let mut m = a;
-        for r in 0..3 {
-            m[r][c] = b[r];
+/// The system n_r·x − t = c_r for r = 0..3, solved one unknown at a time by Cramer's rule.
+struct Cramer {
+    a: [[f64; 3]; 3],
+    b: [f64; 3],
+    d: f64,
+}
+
+#[inline]
+fn det3(m: [[f64; 3]; 3]) -> f64 {
+    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+}
+
+impl Cramer {
+    /// `None` when the system is singular.
+    #[inline]
+    fn new(rows: [([f64; 2], f64); 3]) -> Option<Self> {
+        let a = rows.map(|(n, _)| [n[0], n[1], -1.0]);
+        let b = rows.map(|(_, c)| c);
+        let d = det3(a);
+        if d.is_nan() || d.abs() <= 1e-12 {
+            return None;
         }
-        det3(m) / d
-    };
-    let (x, y, t) = (col(0), col(1), col(2));
-    (x.is_finite() && y.is_finite() && t.is_finite()).then_some(([x, y], t))
+        Some(Self { a, b, d })
+    }
+
+    /// Unknown `c` (0: x, 1: y, 2: t).
+    #[inline]
+    fn col(&self, c: usize) -> f64 {
+        let mut m = self.a;
+        for (row, &b) in m.iter_mut().zip(&self.b) {
+            row[c] = b;
+        }
+        det3(m) / self.d
+    }
 }
 
 #[inline]
