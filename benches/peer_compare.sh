@@ -12,6 +12,9 @@
 #   --work DIR      scratch folder for outputs and the evaluator's venv (/tmp/scanatlas-peer)
 #   --python PY     interpreter for the evaluator's venv (python3)
 #   --out FILE      also write the markdown tables to FILE
+#   --repeat N      run both programs N times each, alternating, and report the medians of the
+#                   wall and stage times and the largest peak RSS (1; the outputs of the last runs
+#                   are evaluated)
 #   -- ARGS...      extra arguments for `scanatlas defrag`
 #
 # Installs what it lacks by itself: the reference (peer_defrag.sh installs xvfb and a venv with
@@ -27,6 +30,7 @@ BIN=$REPO/target/release/scanatlas
 WORK=/tmp/scanatlas-peer
 PY=python3
 OUTFILE=
+REPEAT=1
 MODELS=()
 DEFRAG_ARGS=()
 
@@ -38,6 +42,7 @@ while [[ $# -gt 0 ]]; do
         --work) WORK=$2; shift 2;;
         --python) PY=$2; shift 2;;
         --out) OUTFILE=$2; shift 2;;
+        --repeat) REPEAT=$2; shift 2;;
         --) shift; DEFRAG_ARGS=("$@"); break;;
         -h|--help) sed -n '3,20p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0;;
         -*) echo "unknown option $1" >&2; exit 2;;
@@ -96,11 +101,13 @@ for m in "${MODELS[@]}"; do
     D=$WORK/$name
     rm -rf "$D"; mkdir -p "$D/ref" "$D/ours"
 
-    log "$name: reference (MeshLab through pymeshlab) on $IN"
-    timed "$D/ref/run" "$TOOLS/peer_defrag.sh" "$IN" "$D/ref/out.obj"
-    log "$name: scanatlas defrag"
-    timed "$D/ours/run" "$BIN" -q defrag "$IN" -o "$D/ours/out.obj" --report "$D/ours/report.json" \
-        "${DEFRAG_ARGS[@]}"
+    for ((k = 1; k <= REPEAT; k++)); do
+        log "$name: reference (MeshLab through pymeshlab) on $IN (run $k of $REPEAT)"
+        timed "$D/ref/run$k" "$TOOLS/peer_defrag.sh" "$IN" "$D/ref/out.obj"
+        log "$name: scanatlas defrag (run $k of $REPEAT)"
+        timed "$D/ours/run$k" "$BIN" -q defrag "$IN" -o "$D/ours/out.obj" \
+            --report "$D/ours/report$k.json" "${DEFRAG_ARGS[@]}"
+    done
     for side in ref ours; do
         log "$name: evaluating the $side output"
         nice -n 19 "$EVAL_PY" "$TOOLS/evaluate.py" "$IN" "$D/$side/out.obj" \
@@ -110,8 +117,8 @@ for m in "${MODELS[@]}"; do
     RESULTS+=("$name=$D")
 done
 
-"$EVAL_PY" - "$OUTFILE" "${RESULTS[@]}" <<'PYEOF'
-import json, re, sys
+"$EVAL_PY" - "$OUTFILE" "$REPEAT" "${RESULTS[@]}" <<'PYEOF'
+import json, re, statistics, sys
 
 def time_v(path):
     """Wall seconds and peak RSS in bytes from a GNU `time -v` report."""
@@ -132,12 +139,21 @@ def peer_stage(path):
 def figures(d, side):
     e = json.load(open(f"{d}/{side}/eval.json"))
     i, o, c = e["input"], e["output"], e["comparison"]
-    wall, rss = time_v(f"{d}/{side}/run.time")
+    runs = range(1, int(sys.argv[2]) + 1)
+    timed = [time_v(f"{d}/{side}/run{k}.time") for k in runs]
+    walls = [w for w, _ in timed if w is not None]
+    wall = statistics.median(walls) if walls else None
+    rss = max((r for _, r in timed if r is not None), default=None)
     if side == "ref":
-        stage = peer_stage(f"{d}/ref/run.log")
+        stages = [peer_stage(f"{d}/ref/run{k}.log") for k in runs]
     else:
-        t = json.load(open(f"{d}/ours/report.json"))["times"]
-        stage = (t["prepare_ms"] + t["merge_ms"] + t["pack_ms"] + t["textures_ms"]) / 1e3
+        stages = []
+        for k in runs:
+            t = json.load(open(f"{d}/ours/report{k}.json"))["times"]
+            stages.append((t["prepare_ms"] + t["merge_ms"] + t["pack_ms"] + t["textures_ms"]) / 1e3)
+    stages = [x for x in stages if x is not None]
+    stage = statistics.median(stages) if stages else None
+    all_walls[side] = walls
     col = c.get("color") or {}
     fig = {
         "wall time (s)": wall,
@@ -180,11 +196,15 @@ def ratio(a, b):
     return f"{b / a:.2f}"
 
 out = []
-for arg in sys.argv[2:]:
+all_walls = {}
+for arg in sys.argv[3:]:
     name, d = arg.split("=", 1)
     ref, inp, faces = figures(d, "ref")
     ours, _, _ = figures(d, "ours")
     out.append(f"**{name}** ({faces:,} faces)\n")
+    if int(sys.argv[2]) > 1:
+        runs = "; ".join(f"{side} " + ", ".join(f"{w:.2f}" for w in all_walls[side]) for side in ("ref", "ours"))
+        out.append(f"Wall times of the {sys.argv[2]} runs (s): {runs}. Times below are medians, peak RSS the largest.\n")
     out.append("| figure | input | reference | scanatlas | ratio scanatlas / reference |")
     out.append("|---|--:|--:|--:|--:|")
     for k in ref:
