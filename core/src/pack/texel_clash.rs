@@ -262,12 +262,14 @@ impl<'a> Chart<'a> {
         // Each pair of meeting boxes is listed once: by the cell holding the low corner of the
         // boxes' intersection.
         let mut pairs = Vec::new();
+        // The boxes of one cell's faces side by side, so the pair loop reads them in order.
+        let mut local: Vec<[f64; 4]> = Vec::new();
         for run in cells.chunk_by(|a, b| a.0 == b.0) {
             let k = run[0].0;
-            for (i, &(_, f)) in run.iter().enumerate() {
-                let bf = &boxes[f as usize];
-                for &(_, g) in &run[i + 1..] {
-                    let bg = &boxes[g as usize];
+            local.clear();
+            local.extend(run.iter().map(|&(_, f)| boxes[f as usize]));
+            for (i, (&(_, f), bf)) in run.iter().zip(&local).enumerate() {
+                for (&(_, g), bg) in run[i + 1..].iter().zip(&local[i + 1..]) {
                     if meet(bf, bg) && key(c(bf[0].max(bg[0])), c(bf[1].max(bg[1]))) == k {
                         pairs.push((f, g));
                     }

@@ -162,6 +162,10 @@ struct Sheet {
     prefix: Vec<u64>,
     /// `lo_prefix[x]` = sum of `gap_lo[..x]`, for the waste of gap placements in O(1).
     lo_prefix: Vec<u64>,
+    /// `gap_run[x]` = how many columns from `x` on in a row have a gap, so that a gap placement
+    /// of a chart without empty columns skips at once every position that covers a column with
+    /// none.
+    gap_run: Vec<u32>,
 }
 
 impl Sheet {
@@ -177,6 +181,7 @@ impl Sheet {
             max_gap: 0,
             prefix: vec![0; n + 1],
             lo_prefix: vec![0; n + 1],
+            gap_run: vec![0; n + 1],
         }
     }
 
@@ -339,6 +344,12 @@ impl Sheet {
                     x + 1
                 }
             };
+            // Every column of a chart without empty columns needs a gap of at least one cell:
+            // a position covering a column without one fails, and so do all up to that column.
+            if contiguous && self.gap_run[x as usize] < p.width {
+                x += self.gap_run[x as usize] + 1;
+                continue;
+            }
             if !fits(&p.cols[witness]) {
                 x = fail(x, p.cols[witness].0);
                 continue;
@@ -427,6 +438,10 @@ impl Sheet {
         let used = &self.horizon[..self.width_limit as usize];
         self.min_horizon = used.iter().copied().min().unwrap_or(0);
         self.max_gap = self.gap_lo.iter().zip(&self.gap_hi).map(|(l, h)| h - l).max().unwrap_or(0);
+        for c in (0..self.gap_lo.len()).rev() {
+            self.gap_run[c] =
+                if self.gap_hi[c] > self.gap_lo[c] { self.gap_run[c + 1] + 1 } else { 0 };
+        }
         for (prefix, values) in
             [(&mut self.prefix, &self.horizon), (&mut self.lo_prefix, &self.gap_lo)]
         {
