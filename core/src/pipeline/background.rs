@@ -1,8 +1,9 @@
-//! Work that runs on idle CPU time only: a thread of its own at the idle scheduling class, with a
-//! one-thread pool for the rayon calls inside it, so that it never slows the stages it runs
-//! beside.
+//! Work beside the pipeline on a thread of its own: the input sheets' decode (`decode_ahead`, at
+//! normal priority) and the input's figures for the report, which run on idle CPU time only (the
+//! idle scheduling class, with a one-thread pool for the rayon calls inside), so that they never
+//! slow the stages they run beside.
 //!
-//! Why: the input model's figures for the report are a pure function of the input, needed only
+//! Why idle time for the figures: the input model's figures for the report are a pure function of the input, needed only
 //! at the end, and they cost about a third of a second on venus; the merge leaves a core idle
 //! part of the time (its master settles serial work while the shadow waits), so the figures can
 //! be had there for nothing. At normal priority the same thread would take its share of the
@@ -13,10 +14,21 @@
 use std::thread::JoinHandle;
 use std::time::Instant;
 
-/// A job running on idle time, or kept to run on the caller's thread when no thread could be
-/// spawned (a process at its thread limit).
+/// How a [`Background`] job is scheduled.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Priority {
+    /// The idle scheduling class, with a one-thread pool for the rayon calls inside the job.
+    Idle,
+    /// Like any other thread of the process.
+    Normal,
+}
+
+/// A job running on a thread of its own, or kept to run on the caller's thread when no thread
+/// could be spawned (a process at its thread limit). Dropping it unfinished (an early error
+/// return) waits for the thread and drops the result, so nothing the job made outlives the
+/// run; a job kept to run inline is then never run.
 pub(super) struct Background<T: Send + 'static> {
-    state: State<T>,
+    state: Option<State<T>>,
 }
 
 enum State<T> {
@@ -36,53 +48,67 @@ fn lower_priority() {
     }
 }
 
+/// Runs `job` at `priority` on the calling thread (a spawned one).
+fn run<T: Send>(priority: Priority, job: Box<dyn FnOnce() -> T + Send>) -> T {
+    if priority == Priority::Normal {
+        return job();
+    }
+    lower_priority();
+    // Rayon calls inside the job run on this one idle thread, not on the global pool.
+    match rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .thread_name(|_| "scanatlas-idle".into())
+        .start_handler(|_| lower_priority())
+        .build()
+    {
+        Ok(pool) => pool.install(job),
+        Err(_) => job(),
+    }
+}
+
 impl<T: Send + 'static> Background<T> {
-    /// Starts `job` on a thread named `name` at idle priority.
-    pub fn start(name: &str, job: impl FnOnce() -> T + Send + 'static) -> Self {
+    /// Starts `job` on a thread named `name` at `priority`.
+    pub fn start(name: &str, priority: Priority, job: impl FnOnce() -> T + Send + 'static) -> Self {
         let job: Box<dyn FnOnce() -> T + Send> = Box::new(job);
         // The job is handed over through a slot so that a failed spawn gives it back.
         let slot = std::sync::Arc::new(std::sync::Mutex::new(Some(job)));
         let theirs = slot.clone();
         let spawned = std::thread::Builder::new().name(name.into()).spawn(move || {
-            lower_priority();
             let job = theirs.lock().ok().and_then(|mut j| j.take());
-            let Some(job) = job else { unreachable!("the job is taken once") };
-            // Rayon calls inside the job run on this one idle thread, not on the global pool.
-            match rayon::ThreadPoolBuilder::new()
-                .num_threads(1)
-                .thread_name(|_| "scanatlas-idle".into())
-                .start_handler(|_| lower_priority())
-                .build()
-            {
-                Ok(pool) => pool.install(job),
-                Err(_) => job(),
-            }
+            run(priority, job.expect("the job is handed over once"))
         });
         let state = match spawned {
             Ok(h) => State::Running(h),
             Err(_) => {
                 let job = slot.lock().ok().and_then(|mut j| j.take());
-                match job {
-                    Some(job) => State::Inline(job),
-                    None => unreachable!("a thread that was not spawned took no job"),
-                }
+                State::Inline(job.expect("a thread that was not spawned took no job"))
             }
         };
-        Self { state }
+        Self { state: Some(state) }
     }
 
     /// Waits for the result (or computes it here), with the milliseconds waited.
-    pub fn finish(self) -> (T, f64) {
+    pub fn finish(mut self) -> (T, f64) {
         let t = Instant::now();
-        let out = match self.state {
-            State::Running(h) => match h.join() {
+        let out = match self.state.take() {
+            Some(State::Running(h)) => match h.join() {
                 Ok(v) => v,
                 // A panic is a bug of ours, not bad input: hand it on.
                 Err(p) => std::panic::resume_unwind(p),
             },
-            State::Inline(job) => job(),
+            Some(State::Inline(job)) => job(),
+            None => unreachable!("finish consumes the job"),
         };
         (out, t.elapsed().as_secs_f64() * 1e3)
+    }
+}
+
+impl<T: Send + 'static> Drop for Background<T> {
+    fn drop(&mut self) {
+        if let Some(State::Running(h)) = self.state.take() {
+            // The result goes with it; a panic has nothing left to clean.
+            let _ = h.join();
+        }
     }
 }
 
@@ -95,7 +121,7 @@ mod tests {
     fn the_result_is_the_jobs_whoever_runs_it() {
         let data: Vec<u64> = (0..100_000).collect();
         let expected: u64 = data.iter().map(|x| x * x % 7).sum();
-        let bg = Background::start("scanatlas-test", move || {
+        let bg = Background::start("scanatlas-test", Priority::Idle, move || {
             data.par_iter().map(|x| x * x % 7).sum::<u64>()
         });
         assert_eq!(bg.finish().0, expected);

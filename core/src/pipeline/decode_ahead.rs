@@ -7,9 +7,9 @@
 //! files in the work directory, so running it early changes no result.
 
 use std::path::PathBuf;
-use std::thread::JoinHandle;
 use std::time::Instant;
 
+use super::background::{Background, Priority};
 use crate::model::ImageSource;
 use crate::texture::{TextureError, TileStore, decode};
 
@@ -17,19 +17,13 @@ use crate::texture::{TextureError, TileStore, decode};
 /// decode's own duration in milliseconds.
 type Decoded = Result<(Vec<TileStore>, f64), TextureError>;
 
-/// A decode of every input sheet running beside the pipeline. Dropping it (an early error return)
-/// waits for the thread and deletes whatever it decoded, so no tile file outlives the run. The
-/// default decodes nothing (a run that writes no texture).
+/// A decode of every input sheet running beside the pipeline (a [`Background`] job at normal
+/// priority: the texture stage waits for it). Dropping it (an early error return) waits for the
+/// thread and deletes whatever it decoded, so no tile file outlives the run. The default decodes
+/// nothing (a run that writes no texture).
 #[derive(Default)]
 pub(super) struct DecodeAhead {
-    state: Option<State>,
-}
-
-enum State {
-    Running(JoinHandle<Decoded>),
-    /// The thread could not be spawned (a process at its thread limit): the decode runs on the
-    /// caller's thread when the result is asked for.
-    Inline(Vec<ImageSource>, PathBuf),
+    job: Option<Background<Decoded>>,
 }
 
 /// The stores of a finished decode, with its timings.
@@ -56,39 +50,17 @@ impl DecodeAhead {
         if sheets.is_empty() {
             return Self::default();
         }
-        // The sources are cheap to copy (paths, or shared embedded bytes).
-        let (s, w) = (sheets.clone(), work_dir.clone());
-        let spawned = std::thread::Builder::new()
-            .name("scanatlas-decode".into())
-            .spawn(move || decode_all(&s, &w));
-        let state = match spawned {
-            Ok(h) => State::Running(h),
-            Err(_) => State::Inline(sheets, work_dir),
-        };
-        Self { state: Some(state) }
+        let job = move || decode_all(&sheets, &work_dir);
+        Self { job: Some(Background::start("scanatlas-decode", Priority::Normal, job)) }
     }
 
     /// Waits for the decode and returns its stores.
     pub fn finish(mut self) -> Result<DecodedSheets, TextureError> {
-        let t = Instant::now();
-        let (stores, decode_ms) = match self.state.take() {
-            Some(State::Running(h)) => match h.join() {
-                Ok(r) => r?,
-                // A panic is a bug of ours, not bad input: hand it on.
-                Err(p) => std::panic::resume_unwind(p),
-            },
-            Some(State::Inline(sheets, work_dir)) => decode_all(&sheets, &work_dir)?,
-            None => (Vec::new(), 0.0),
+        let Some(job) = self.job.take() else {
+            return Ok(DecodedSheets { stores: Vec::new(), decode_ms: 0.0, wait_ms: 0.0 });
         };
-        Ok(DecodedSheets { stores, decode_ms, wait_ms: t.elapsed().as_secs_f64() * 1e3 })
-    }
-}
-
-impl Drop for DecodeAhead {
-    fn drop(&mut self) {
-        if let Some(State::Running(h)) = self.state.take() {
-            // The stores (and their files) go with the result; a panic has nothing left to clean.
-            let _ = h.join();
-        }
+        let (decoded, wait_ms) = job.finish();
+        let (stores, decode_ms) = decoded?;
+        Ok(DecodedSheets { stores, decode_ms, wait_ms })
     }
 }

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use super::PipelineError;
-use super::background::Background;
+use super::background::{Background, Priority};
 use super::convert::output_sheet_path;
 use super::decode_ahead::DecodeAhead;
 use crate::defrag::{
@@ -227,7 +227,8 @@ pub fn defrag_with_progress(
     let stats_opts = StatsOptions { overlaps };
     let input_stats = {
         let (model, in_sizes) = (model.clone(), in_sizes.clone());
-        Background::start("scanatlas-stats", move || atlas_stats(&model, &in_sizes, &stats_opts))
+        let job = move || atlas_stats(&model, &in_sizes, &stats_opts);
+        Background::start("scanatlas-stats", Priority::Idle, job)
     };
 
     let out_dir = match output.parent() {
