@@ -680,7 +680,7 @@ impl Engine<'_> {
         }
         let p = &mut self.problem;
         self.area_bounds.clear();
-        for (&f, tri) in self.opt_faces.iter().zip(&p.triangles) {
+        for (&f, tri) in self.problem_faces.iter().zip(&p.triangles) {
             let now = signed_area2(tri.map(|v| p.uv[v as usize]));
             self.area_bounds.push(area_bound(self.face_area2[f as usize], now));
         }

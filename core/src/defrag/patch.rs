@@ -130,7 +130,19 @@ impl Engine<'_> {
         p.triangles.clear();
         p.targets.clear();
         self.local_verts.clear();
+        self.problem_faces.clear();
         for &f in &self.opt_faces {
+            // A face with two corners at one 3-D position (frozen as degenerate, and carried
+            // along with its chart) has two corners on one UV vertex: it stays a segment wherever
+            // its vertices go, has no area to keep and no energy, and as a triangle of the patch
+            // it would make the patch's topology fail. Venus has 2,634 such faces; before, every
+            // merge whose area reached one was refused (147 of 159 topology refusals of the
+            // serial venus merge).
+            let c = |k: usize| self.t.corner_uv[3 * f as usize + k].0;
+            if c(0) == c(1) || c(1) == c(2) || c(0) == c(2) {
+                continue;
+            }
+            self.problem_faces.push(f);
             let mut tri = [0u32; 3];
             for (k, slot) in tri.iter_mut().enumerate() {
                 let v = self.t.corner_uv[3 * f as usize + k].0;
@@ -173,7 +185,7 @@ impl Engine<'_> {
     /// orientation are common in scans): fans are unions of corners across edges shared by two
     /// triangles, and a boundary loop is a union of boundary edges meeting in one fan. An edge with
     /// more than two triangles fails.
-    fn patch_is_disk_like(&mut self) -> bool {
+    pub(super) fn patch_is_disk_like(&mut self) -> bool {
         let n = self.problem.uv.len();
         let nt = self.problem.triangles.len();
         // Undirected edges (lo, hi, 3·triangle + k), sorted so that equal edges are adjacent.
@@ -229,19 +241,31 @@ impl Engine<'_> {
                 union(&mut loops, w[0].1, w[1].1);
             }
         }
-        // Components of the patch, and per component: vertex copies (fans), E, F, H.
+        // The vertex-connected parts, which `anchor_components` reads: each needs a fixed vertex
+        // for the solve.
         self.uf.clear();
         self.uf.extend(0..n as u32);
         for t in tris.iter() {
             union(&mut self.uf, t[0], t[1]);
             union(&mut self.uf, t[0], t[2]);
         }
-        let mut counts: Vec<[i64; 4]> = vec![[0; 4]; n];
+        // The surface's parts are the triangles joined across interior edges: two parts that
+        // touch at a vertex only are two surfaces (the vertex is split, one copy per fan), and
+        // each is judged on its own. Per part: vertex copies (fans), E, F, H.
+        let mut part: Vec<u32> = (0..nt as u32).collect();
+        let mut i = 0;
+        while i < edges.len() {
+            if i + 1 < edges.len() && (edges[i + 1].0, edges[i + 1].1) == (edges[i].0, edges[i].1) {
+                union(&mut part, edges[i].2 / 3, edges[i + 1].2 / 3);
+                i += 2;
+            } else {
+                i += 1;
+            }
+        }
+        let mut counts: Vec<[i64; 4]> = vec![[0; 4]; nt];
         for c in 0..3 * nt as u32 {
             if find(&mut fan, c) == c {
-                let v = tris[(c / 3) as usize][(c % 3) as usize];
-                let r = find(&mut self.uf, v) as usize;
-                counts[r][0] += 1;
+                counts[find(&mut part, c / 3) as usize][0] += 1;
             }
         }
         let mut i = 0;
@@ -250,25 +274,19 @@ impl Engine<'_> {
             while j < edges.len() && (edges[j].0, edges[j].1) == (edges[i].0, edges[i].1) {
                 j += 1;
             }
-            let r = find(&mut self.uf, edges[i].0) as usize;
-            counts[r][1] += 1;
+            counts[find(&mut part, edges[i].2 / 3) as usize][1] += 1;
             i = j;
         }
-        for t in tris.iter() {
-            let r = find(&mut self.uf, t[0]) as usize;
-            counts[r][2] += 1;
+        for t in 0..nt as u32 {
+            counts[find(&mut part, t) as usize][2] += 1;
         }
-        for (e, &(a, _, _)) in boundary.iter().enumerate() {
+        for (e, &(_, _, t)) in boundary.iter().enumerate() {
             if find(&mut loops, e as u32) == e as u32 {
-                let r = find(&mut self.uf, a) as usize;
-                counts[r][3] += 1;
+                counts[find(&mut part, t) as usize][3] += 1;
             }
         }
-        for (v, &[vc, ec, fc, hc]) in counts.iter().enumerate() {
-            if self.uf[v] as usize != v {
-                continue;
-            }
-            if fc == 0 {
+        for (t, &[vc, ec, fc, hc]) in counts.iter().enumerate() {
+            if part[t] as usize != t {
                 continue;
             }
             let chi = vc - ec + fc;

@@ -85,6 +85,9 @@ pub(crate) struct Engine<'t> {
     pub seeds: Vec<(u32, f64)>,
     pub free: Vec<u32>,
     pub opt_faces: Vec<u32>,
+    /// The face of each triangle of `problem`: the optimization area but for the faces whose
+    /// corners share a UV vertex (see `build_problem`).
+    pub problem_faces: Vec<u32>,
     pub local_verts: Vec<u32>,
     pub problem: LocalProblem,
     pub start_uv: Vec<[f64; 2]>,
@@ -360,6 +363,7 @@ impl<'t> Engine<'t> {
             seeds: Vec::new(),
             free: Vec::new(),
             opt_faces: Vec::new(),
+            problem_faces: Vec::new(),
             local_verts: Vec::new(),
             problem: LocalProblem::default(),
             start_uv: Vec::new(),

@@ -796,3 +796,55 @@ fn a_folded_chart_whose_faces_meet_at_a_non_manifold_edge_is_unfolded_as_a_fores
         }
     }
 }
+
+/// The topology verdict of a patch given as local triangles over `n` vertices.
+fn patch_verdict(n: usize, triangles: &[[u32; 3]]) -> bool {
+    let m = two_halves(2, rigid(0.0, [8.0, 8.0], 8.0), rigid(0.0, [8.0, 48.0], 8.0));
+    let mut t = prepare(&m);
+    let mut e = state::Engine::new(&mut t, MergeOptions::default());
+    e.problem.uv = vec![[0.0, 0.0]; n];
+    e.problem.triangles = triangles.to_vec();
+    e.patch_is_disk_like()
+}
+
+#[test]
+fn a_patch_of_disks_touching_at_a_vertex_is_disk_like_and_a_closed_one_is_not() {
+    // One disk, and two disks meeting at vertex 0 only (a bow tie): both flatten. Before, the
+    // bow tie was judged as one surface of two loops and Euler characteristic 2, and refused
+    // (venus's merge: 186 topology refusals before, 107 after).
+    assert!(patch_verdict(4, &[[0, 1, 2], [0, 2, 3]]));
+    assert!(patch_verdict(5, &[[0, 1, 2], [0, 3, 4]]));
+    // A closed surface (a tetrahedron) cannot be flattened, alone or touching a disk.
+    let tet = [[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2]];
+    assert!(!patch_verdict(4, &tet));
+    let mut with_disk = tet.to_vec();
+    with_disk.push([0, 4, 5]);
+    assert!(!patch_verdict(6, &with_disk));
+    // An edge with three triangles is refused.
+    assert!(!patch_verdict(5, &[[0, 1, 2], [0, 1, 3], [0, 1, 4]]));
+}
+
+#[test]
+fn a_face_with_two_corners_at_one_position_does_not_stop_a_merge_beside_it() {
+    let n = 8;
+    let (left, right) = (rigid(0.0, [20.0, 20.0], 4.0), rigid(0.5, [150.0, 60.0], 4.0));
+    let mut m = two_halves(n, &left, &right);
+    let g = |i: u32, j: u32| j * (n + 1) + i;
+    let at = |v: u32| m.positions[v as usize];
+    // One on each side of the seam (column 4), on a seam vertex, with the UVs its chart has
+    // there, so that the weld puts it in that chart.
+    let (l0, l1) = (g(4, 3), g(3, 3));
+    let (r0, r1) = (g(4, 5), g(5, 5));
+    let lt = [left(at(l0)), left(at(l0)), left(at(l1))];
+    let rt = [right(at(r0)), right(at(r0)), right(at(r1))];
+    add_face(&mut m, [l0, l0, l1], lt);
+    add_face(&mut m, [r0, r0, r1], rt);
+    let t0 = prepare(&m);
+    assert_eq!(t0.report.charts, 2);
+    let (t, r) = run(&m, &MergeOptions::default());
+    assert_eq!(r.rejected.topology, 0, "{r:?}");
+    assert_eq!((r.accepted, r.charts_after), (1, 1), "{r:?}");
+    let back = merged_model(&m, &t);
+    assert_eq!(back.faces.len(), m.faces.len());
+    assert_eq!(prepare(&back).report.seams, 0);
+}
