@@ -848,3 +848,28 @@ fn a_face_with_two_corners_at_one_position_does_not_stop_a_merge_beside_it() {
     assert_eq!(back.faces.len(), m.faces.len());
     assert_eq!(prepare(&back).report.seams, 0);
 }
+
+#[test]
+fn a_fold_among_fixed_vertices_dooms_the_attempt_before_any_solve() {
+    let m = two_halves(2, rigid(0.0, [8.0, 8.0], 8.0), rigid(0.0, [8.0, 48.0], 8.0));
+    let mut t = prepare(&m);
+    let mut e = state::Engine::new(&mut t, MergeOptions::default());
+    e.face_area2[0] = 2.0;
+    e.problem_faces = vec![0];
+    e.problem.triangles = vec![[0, 1, 2]];
+    let clockwise = vec![[0.0, 0.0], [0.0, 1.0], [1.0, 0.0]];
+    let counter_clockwise = vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
+    let verdict = |e: &mut state::Engine, uv: &[[f64; 2]], fixed: [bool; 3]| {
+        e.problem.uv = uv.to_vec();
+        e.problem.fixed = fixed.to_vec();
+        e.fold_fixed_for_good()
+    };
+    // Turned over with every corner held: nothing can turn it back.
+    assert!(verdict(&mut e, &clockwise, [true; 3]));
+    // One free corner may still turn it back, and an unfolded face dooms nothing.
+    assert!(!verdict(&mut e, &clockwise, [true, false, true]));
+    assert!(!verdict(&mut e, &counter_clockwise, [true; 3]));
+    // A face folded in the input may stay folded.
+    e.face_area2[0] = -2.0;
+    assert!(!verdict(&mut e, &clockwise, [true; 3]));
+}
