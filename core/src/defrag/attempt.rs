@@ -5,7 +5,6 @@
 
 use std::time::Instant;
 
-use super::RejectReason;
 use super::grid::tri_bbox;
 use super::kernel::unfold_start;
 use super::ops::{OpGeometry, dist};
@@ -13,15 +12,12 @@ use super::patch::{find, union};
 use super::separate::area_bound;
 use super::state::{Engine, NONE, orig_tri};
 use super::undo::Saved;
+use super::{DEGENERATE_AREA2, RejectReason};
 use crate::geometry::{
     Tri2, isometric_energy, signed_area2, triangles_overlap_beyond_noise as overlap,
 };
 use crate::plugin::LocalSolver;
 use crate::topology::{HalfEdgeId, UvVertId};
-
-/// Twice the evaluator's degenerate-area threshold (1e-6 texel²): a triangle whose doubled area
-/// falls below this has become degenerate.
-pub(super) const DEGENERATE_AREA2: f64 = 2e-6;
 
 #[inline]
 fn ms(t: Instant) -> f64 {

@@ -3,7 +3,7 @@
 //! triangles as targets, digest §5.5) and its topology check (each connected part must be a
 //! disk-like surface: genus 0 with at least one boundary loop, no edge with three triangles).
 
-use super::attempt::DEGENERATE_AREA2;
+use super::DEGENERATE_AREA2;
 use super::ops::dist;
 use super::state::{Engine, NONE, OrdF64, orig_tri};
 use crate::geometry::signed_area2;

@@ -10,7 +10,7 @@
 //! the seam costs almost nothing in area-weighted distortion. The verdict is then taken again in
 //! full, so a separated layout passes only if every check of the paper passes.
 
-use super::attempt::DEGENERATE_AREA2;
+use super::DEGENERATE_AREA2;
 use super::grid::tri_bbox;
 use super::kernel::AreaBound;
 use super::ops::{OpGeometry, dist};

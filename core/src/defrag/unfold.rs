@@ -11,13 +11,12 @@
 //! net does not cross becomes a border of the chart. A chart whose net cannot be laid out without
 //! an overlap from any of the roots tried is left exactly as it was.
 
+use super::DEGENERATE_AREA2;
 use super::grid::tri_bbox;
 use super::state::{Engine, orig_tri};
 use crate::geometry::{Tri2, isometric_energy, signed_area2, triangles_overlap};
 use crate::topology::{ChartId, HalfEdgeId, UvVertId};
 
-/// Twice the evaluator's degenerate-area threshold (texel²): a root face must be larger.
-const DEGENERATE_AREA2: f64 = 2e-6;
 /// Charts larger than this are never unfolded: the net checks every pair of its faces.
 const MAX_FACES: usize = 256;
 /// How many of a chart's largest faces are tried as the root of its net.

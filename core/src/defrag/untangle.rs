@@ -17,11 +17,8 @@ use crate::geometry::{Tri2, isometric_energy, signed_area2, triangles_overlap_be
 use crate::plugin::{LocalProblem, LocalSolver};
 use crate::topology::Topology;
 
+use super::DEGENERATE_AREA2;
 use super::unfold::third_corner;
-
-/// Twice the evaluator's degenerate-area threshold (texel²): below it a doubled area counts as
-/// degenerate (the same threshold as the merge's fold check).
-const DEGENERATE_AREA2: f64 = 2e-6;
 
 /// Options of the repair.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]

@@ -29,11 +29,10 @@ use crate::geometry::{
 };
 use crate::topology::{ChartId, FrozenReasons, HalfEdgeId, UvVertId};
 
+use super::DEGENERATE_AREA2;
 use super::grid::tri_bbox;
 use super::unfold::third_corner;
 
-/// Doubled texel area below which a placed face counts as degenerate (the evaluator's 1e-6 texel²).
-const DEGENERATE_AREA2: f64 = 2e-6;
 /// Passes over the zero-area faces: a face whose only neighbours have zero area can join through
 /// a face attached in an earlier pass.
 const PASSES: usize = 4;
