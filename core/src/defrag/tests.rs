@@ -873,3 +873,64 @@ fn a_fold_among_fixed_vertices_dooms_the_attempt_before_any_solve() {
     e.face_area2[0] = -2.0;
     assert!(!verdict(&mut e, &clockwise, [true; 3]));
 }
+
+/// An `n × n` flat grid of quads, each quad a chart of its own (8 texels across, 8 texels apart).
+fn quad_charts(n: u32) -> Model {
+    let mut p = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            p.push([f64::from(i), f64::from(j), 0.0]);
+        }
+    }
+    let mut m = model_with(p);
+    let g = |i: u32, j: u32| j * (n + 1) + i;
+    for j in 0..n {
+        for i in 0..n {
+            let c = [g(i, j), g(i + 1, j), g(i + 1, j + 1), g(i, j + 1)];
+            let place = rigid(0.0, [4.0 + 8.0 * f64::from(i), 4.0 + 8.0 * f64::from(j)], 8.0);
+            let t = c.map(|v| place(m.positions[v as usize]));
+            add_face(&mut m, [c[0], c[1], c[2]], [t[0], t[1], t[2]]);
+            add_face(&mut m, [c[0], c[2], c[3]], [t[0], t[2], t[3]]);
+        }
+    }
+    m
+}
+
+/// After a merge, the operations of the merged chart are scored with its neighbours in view:
+/// two middle quads of a 4 × 4 grid make a chart with six neighbours, so no operation of it
+/// passes the small-island look-ahead (at most five neighbours a side), whatever the other
+/// chart's count. The merged chart's operation list was once taken while they were rescored,
+/// which left it without neighbours: the look-ahead then passed towards every chart with at most
+/// five, and the boundary filter never saw those merges.
+#[test]
+fn the_merged_chart_keeps_its_neighbours_while_its_operations_are_rescored() {
+    let m = quad_charts(4);
+    let mut t = prepare(&m);
+    let face_of_quad = |i: usize, j: usize| 2 * (4 * j + i);
+    let chart_of = |t: &Topology, i: usize, j: usize| t.face_chart[face_of_quad(i, j)];
+    let (left, right, below) = (chart_of(&t, 1, 1), chart_of(&t, 2, 1), chart_of(&t, 1, 0));
+    assert!(left != right && left != below);
+    let mut e = state::Engine::new(&mut t, MergeOptions::default());
+    let between = |e: &state::Engine, x, y| {
+        (0..e.ops.len() as u32)
+            .find(|&op| {
+                e.ops[op as usize].is_live() && {
+                    let c = e.op_charts(op);
+                    c == (x, y) || c == (y, x)
+                }
+            })
+            .expect("an operation joins the two charts")
+    };
+    let mut queue = greedy::Queue::new();
+    e.fill_queue(&ByError, &mut queue, None);
+    let op = between(&e, left, right);
+    let (result, _) = e.attempt_recorded(op, &mut Keep);
+    assert!(result.is_ok(), "two quads side by side merge: {result:?}");
+    e.settle(op, result, &ByError, &mut queue, None);
+    let merged = e.t.face_chart[face_of_quad(1, 1)];
+    assert_eq!(merged, e.t.face_chart[face_of_quad(2, 1)]);
+    let towards_below = between(&e, merged, below);
+    // The quad below has three neighbours; the merged chart has six.
+    assert!(!e.ops[towards_below as usize].island, "scored as if the merged chart had none");
+    assert!(!e.island_lookahead(merged, below) && !e.island_lookahead(below, merged));
+}
