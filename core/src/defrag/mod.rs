@@ -47,10 +47,7 @@ pub use zero_area::ZeroAreaReport;
 
 use crate::plugin::Veto;
 
-/// Twice the evaluator's degenerate-area threshold (1e-6 texel²): a UV triangle whose doubled
-/// area falls below this counts as degenerate. The merge's fold check, the repairs and the
-/// zero-area pass all judge by it, so that what one of them calls degenerate the others do too.
-const DEGENERATE_AREA2: f64 = 2e-6;
+use crate::geometry::DEGENERATE_AREA2;
 
 /// The parameters of the merge stage, with the paper's defaults (§5, digest §4.5).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]

@@ -12,6 +12,12 @@ pub type Tri2 = [[f64; 2]; 3];
 /// evaluator; this keeps an untouched triangle at exactly zero whatever its size or position.
 pub const ENERGY_NOISE: f64 = 1e-20;
 
+/// Twice the evaluator's degenerate-area threshold (1e-6 texel²): a UV triangle whose doubled
+/// area (in texels) falls below this counts as degenerate. The merge's fold check, its repairs, the
+/// zero-area pass and the f32 rounding of written UVs all judge by it, so that what one of them
+/// calls degenerate the others do too.
+pub const DEGENERATE_AREA2: f64 = 2e-6;
+
 /// Twice the signed area of `t` (positive when counter-clockwise), in plain floating point. Use
 /// `predicates::orient2d` when the sign must be exact.
 #[inline]

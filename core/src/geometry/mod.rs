@@ -10,8 +10,8 @@ pub mod predicates;
 pub mod svd;
 
 pub use energy::{
-    EnergySum, Tri2, closest_rotation_and_energy, energy_weight, isometric_energy, jacobian,
-    mean_isometric_energy, signed_area2,
+    DEGENERATE_AREA2, EnergySum, Tri2, closest_rotation_and_energy, energy_weight,
+    isometric_energy, jacobian, mean_isometric_energy, signed_area2,
 };
 pub use fit::{Rigid2, rigid_fit};
 pub use grid::GridTransform;

@@ -4,6 +4,7 @@
 //! index before returning, and reports malformed input as an [`IoError`] naming the file and the
 //! line or byte offset. Every writer is atomic and refuses to overwrite a protected (input) path.
 
+mod f32_uvs;
 pub mod gltf;
 pub mod obj;
 pub(crate) mod paths;
@@ -90,7 +91,9 @@ pub fn read_model(path: &Path) -> Result<Model, IoError> {
 }
 
 /// Writes a model in the format its extension names, atomically. The input file of the model
-/// (`model.path`) is always protected besides `opts.protect`.
+/// (`model.path`) is always protected besides `opts.protect`. Formats that store UVs as f32
+/// (glTF, GLB, PLY) get, for the few faces that the rounding would turn over or flatten, a corner
+/// moved by a few f32 steps so that they keep their orientation (see `f32_uvs`).
 pub fn write_model(model: &Model, path: &Path, opts: &WriteOptions) -> Result<(), IoError> {
     let format = ModelFormat::from_path(path)
         .ok_or_else(|| IoError::UnknownFormat { path: path.to_path_buf() })?;
@@ -104,6 +107,17 @@ pub fn write_model(model: &Model, path: &Path, opts: &WriteOptions) -> Result<()
         ModelFormat::Gltf | ModelFormat::Glb => None,
     };
     let model = world.as_ref().unwrap_or(model);
+    let stored = match format {
+        ModelFormat::Obj => None,
+        ModelFormat::Gltf | ModelFormat::Glb => Some(f32_uvs::Stored::FlippedV),
+        ModelFormat::Ply => Some(f32_uvs::Stored::Plain),
+    };
+    let kept = stored.and_then(|how| f32_uvs::keep_orientation(model, how)).map(|uvs| {
+        let mut m = model.clone();
+        m.uvs = uvs;
+        m
+    });
+    let model = kept.as_ref().unwrap_or(model);
     match format {
         ModelFormat::Obj => obj::write(model, path, &opts),
         ModelFormat::Gltf => gltf::write(model, path, &opts, false),
