@@ -54,13 +54,8 @@ fn rigid(angle: f64, t: [f64; 2], scale: f64) -> impl Fn([f64; 3]) -> [f64; 2] {
     move |p| [scale * (c * p[0] - s * p[1]) + t[0], scale * (s * p[0] + c * p[1]) + t[1]]
 }
 
-/// An `n × n` flat grid; quads with `i < n / 2` go to chart 0 (mapped by `left`), the others to
-/// chart 1 (mapped by `right`).
-fn two_halves(
-    n: u32,
-    left: impl Fn([f64; 3]) -> [f64; 2],
-    right: impl Fn([f64; 3]) -> [f64; 2],
-) -> Model {
+/// An `n × n` flat grid of quads, each quad's corners mapped to texels by `map(i, j, position)`.
+fn quad_grid(n: u32, map: impl Fn(u32, u32, [f64; 3]) -> [f64; 2]) -> Model {
     let mut p = Vec::new();
     for j in 0..=n {
         for i in 0..=n {
@@ -72,16 +67,22 @@ fn two_halves(
     for j in 0..n {
         for i in 0..n {
             let c = [g(i, j), g(i + 1, j), g(i + 1, j + 1), g(i, j + 1)];
-            let map = |v: u32| {
-                let q = m.positions[v as usize];
-                if i < n / 2 { left(q) } else { right(q) }
-            };
-            let t = c.map(map);
+            let t = c.map(|v| map(i, j, m.positions[v as usize]));
             add_face(&mut m, [c[0], c[1], c[2]], [t[0], t[1], t[2]]);
             add_face(&mut m, [c[0], c[2], c[3]], [t[0], t[2], t[3]]);
         }
     }
     m
+}
+
+/// An `n × n` flat grid; quads with `i < n / 2` go to chart 0 (mapped by `left`), the others to
+/// chart 1 (mapped by `right`).
+fn two_halves(
+    n: u32,
+    left: impl Fn([f64; 3]) -> [f64; 2],
+    right: impl Fn([f64; 3]) -> [f64; 2],
+) -> Model {
+    quad_grid(n, |i, _, q| if i < n / 2 { left(q) } else { right(q) })
 }
 
 fn prepare(m: &Model) -> Topology {
@@ -876,24 +877,7 @@ fn a_fold_among_fixed_vertices_dooms_the_attempt_before_any_solve() {
 
 /// An `n × n` flat grid of quads, each quad a chart of its own (8 texels across, 8 texels apart).
 fn quad_charts(n: u32) -> Model {
-    let mut p = Vec::new();
-    for j in 0..=n {
-        for i in 0..=n {
-            p.push([f64::from(i), f64::from(j), 0.0]);
-        }
-    }
-    let mut m = model_with(p);
-    let g = |i: u32, j: u32| j * (n + 1) + i;
-    for j in 0..n {
-        for i in 0..n {
-            let c = [g(i, j), g(i + 1, j), g(i + 1, j + 1), g(i, j + 1)];
-            let place = rigid(0.0, [4.0 + 8.0 * f64::from(i), 4.0 + 8.0 * f64::from(j)], 8.0);
-            let t = c.map(|v| place(m.positions[v as usize]));
-            add_face(&mut m, [c[0], c[1], c[2]], [t[0], t[1], t[2]]);
-            add_face(&mut m, [c[0], c[2], c[3]], [t[0], t[2], t[3]]);
-        }
-    }
-    m
+    quad_grid(n, |i, j, q| rigid(0.0, [4.0 + 8.0 * f64::from(i), 4.0 + 8.0 * f64::from(j)], 8.0)(q))
 }
 
 /// After a merge, the operations of the merged chart are scored with its neighbours in view:
