@@ -80,21 +80,29 @@ fn lost(before: f64, after: f64, side: f64) -> bool {
 /// stored as `how`, or `None` when the rounding costs no face anything (nearly always). Faces
 /// whose every nudge within `MAX_STEPS` would cost another face keep the plain rounding.
 pub(crate) fn keep_orientation(model: &Model, how: Stored) -> Option<Vec<[f64; 2]>> {
+    // Sheet size per material; without a known size the normalized units stand in (the sign is
+    // still kept).
+    let material_size: Vec<[f64; 2]> = model
+        .materials
+        .iter()
+        .map(|m| {
+            let size = m.sheet.and_then(|s| model.sheets.get(s.idx())).and_then(|s| s.size);
+            size.map_or([1.0, 1.0], |(w, h)| [f64::from(w), f64::from(h)])
+        })
+        .collect();
     let size_of = |f: usize| -> [f64; 2] {
-        let sheet = model.faces[f]
+        model.faces[f]
             .material
-            .and_then(|m| model.materials.get(m.idx()))
-            .and_then(|m| m.sheet)
-            .and_then(|s| model.sheets.get(s.idx()))
-            .and_then(|s| s.size);
-        // Without a known size the normalized units stand in: the sign is still kept.
-        sheet.map_or([1.0, 1.0], |(w, h)| [f64::from(w), f64::from(h)])
+            .and_then(|m| material_size.get(m.idx()).copied())
+            .unwrap_or([1.0; 2])
     };
     let uvs = &model.uvs;
+    // What a reader gets back for every UV record (the writer rounds each record once).
+    let read_back: Vec<[f64; 2]> = uvs.iter().map(|&uv| how.load(how.store(uv))).collect();
     // The UV corners of a face, when it has them all (a model being written has been validated,
     // but a face out of range is left to the writer rather than looked at here).
     let corners = |f: usize| model.faces[f].uv.filter(|t| t.iter().all(|u| u.idx() < uvs.len()));
-    let rounded = |u: UvId| how.load(how.store(uvs[u.idx()]));
+    let rounded = |u: UvId| read_back[u.idx()];
     let mut bad: Vec<u32> = Vec::new();
     for f in 0..model.faces.len() {
         let Some(t) = corners(f) else { continue };
