@@ -13,9 +13,10 @@
 
 use std::collections::HashMap;
 
-use crate::geometry::DEGENERATE_AREA2;
+use crate::geometry::{DEGENERATE_AREA2, Tri2, signed_area2};
 use crate::index::UvId;
 use crate::model::Model;
+use crate::texture::coords::flip_v;
 
 /// How a format stores a UV pair.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -32,18 +33,14 @@ const MAX_STEPS: i32 = 4;
 impl Stored {
     /// The stored f32 pair of `uv`.
     fn store(self, uv: [f64; 2]) -> [f32; 2] {
-        match self {
-            Stored::Plain => [uv[0] as f32, uv[1] as f32],
-            Stored::FlippedV => [uv[0] as f32, (1.0 - uv[1]) as f32],
-        }
+        let uv = if self == Stored::FlippedV { flip_v(uv) } else { uv };
+        uv.map(|c| c as f32)
     }
 
     /// The UV a reader gets back from a stored pair.
     fn load(self, s: [f32; 2]) -> [f64; 2] {
-        match self {
-            Stored::Plain => [f64::from(s[0]), f64::from(s[1])],
-            Stored::FlippedV => [f64::from(s[0]), 1.0 - f64::from(s[1])],
-        }
+        let uv = s.map(f64::from);
+        if self == Stored::FlippedV { flip_v(uv) } else { uv }
     }
 }
 
@@ -56,9 +53,8 @@ fn step(mut x: f32, n: i32) -> f32 {
 }
 
 /// Doubled signed area of a UV triangle in texels of a `size` sheet.
-fn area2(t: [[f64; 2]; 3], size: [f64; 2]) -> f64 {
-    let p = t.map(|q| [q[0] * size[0], q[1] * size[1]]);
-    (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1])
+fn area2(t: Tri2, size: [f64; 2]) -> f64 {
+    signed_area2(t.map(|q| [q[0] * size[0], q[1] * size[1]]))
 }
 
 /// Whether a face of doubled area `before` (f64) is turned over or flattened at `after` (read
