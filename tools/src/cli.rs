@@ -270,7 +270,8 @@ pub struct DefragArgs {
     /// Merge scorer plugin (see `scanatlas plugins`) [default: paper].
     #[arg(long)]
     pub scorer: Option<String>,
-    /// Local solver plugin, or a fallback chain such as `slim,arap` [default: arap].
+    /// Local solver plugin, a fallback chain such as `slim,arap`, and after a `+` a rescue for
+    /// the refused layouts of long seams (see --rescue-share) [default: arap+slim].
     #[arg(long)]
     pub solver: Option<String>,
     /// Never retry an operation that failed (the paper's NoRetry ablation).
@@ -304,6 +305,11 @@ pub struct DefragArgs {
     /// share of g; beyond, both sides are re-optimized (0: no limit) [default: 2].
     #[arg(long)]
     pub one_sided_ration: Option<f64>,
+    /// A refused merge whose seams are at least this share of the input's UV border is solved
+    /// once more by the solver's rescue (`--solver arap+slim`; 0: every refused merge)
+    /// [default: 0.002].
+    #[arg(long)]
+    pub rescue_share: Option<f64>,
     /// Leave texel clashes (two faces of a chart on a texel centre they did not share in the
     /// input) as they are (by default free vertices move by up to two texels to separate them).
     #[arg(long)]

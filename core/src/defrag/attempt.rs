@@ -404,9 +404,25 @@ impl Engine<'_> {
         self.start_uv.extend_from_slice(&self.problem.uv);
         let mut rerun = 0;
         let mut grown = 0;
+        // The refusal that sent the attempt to the solver's rescue, once it went there.
+        let mut rescued: Option<RejectReason> = None;
         loop {
             let t = Instant::now();
-            let solved = solver.solve(&mut self.problem);
+            let solved = match rescued {
+                None => solver.solve(&mut self.problem),
+                // A rescue that cannot run or fails leaves the first refusal standing.
+                Some(refusal) => {
+                    let again = solver.solve_again(&mut self.problem);
+                    self.report.rescues += u64::from(again.is_some());
+                    match again {
+                        Some(Ok(rep)) => Ok(rep),
+                        _ => {
+                            self.report.timings.solve_ms += ms(t);
+                            return Err(refusal);
+                        }
+                    }
+                }
+            };
             self.report.timings.solve_ms += ms(t);
             let Ok(rep) = solved else {
                 return Err(RejectReason::Numerical);
@@ -425,22 +441,42 @@ impl Engine<'_> {
             self.report.timings.checks_ms += ms(t);
             match verdict {
                 Verdict::Pass { out_num, out_den, in_num } => {
+                    self.report.rescues_passed += u64::from(rescued.is_some());
                     return Ok((out_num, out_den, in_num));
                 }
-                Verdict::Reject(r) => return Err(r),
+                Verdict::Reject(r) => {
+                    let rescuable = matches!(r, RejectReason::Fold | RejectReason::LocalDistortion);
+                    if rescuable && rescued.is_none() && self.start_rescue(g) {
+                        rescued = Some(r);
+                        continue;
+                    }
+                    return Err(r);
+                }
                 Verdict::Overlap => {
                     if self.opts.solve_repair {
                         self.report.separations += 1;
                         if let Some(pass) = self.separate_and_judge(g) {
                             self.report.separations_done += 1;
+                            self.report.rescues_passed += u64::from(rescued.is_some());
                             return Ok(pass);
                         }
                     }
+                    // The rescue gets one solve (and its separation), no freezing or growing.
+                    if rescued.is_some() {
+                        return Err(RejectReason::Overlap);
+                    }
                     if rerun >= self.opts.max_freeze_retries || !self.freeze_offenders() {
-                        if grown < self.opts.max_area_grows && self.grow_area(g) {
+                        if grown < self.opts.max_area_grows {
+                            if !self.grow_area(g) {
+                                return Err(RejectReason::Overlap);
+                            }
                             grown += 1;
                             rerun = 0;
                             self.report.area_grows += 1;
+                            continue;
+                        }
+                        if self.start_rescue(g) {
+                            rescued = Some(RejectReason::Overlap);
                             continue;
                         }
                         return Err(RejectReason::Overlap);
@@ -456,6 +492,24 @@ impl Engine<'_> {
                 }
             }
         }
+    }
+
+    /// Whether the refused attempt in progress is one for the solver's rescue (its seams are at
+    /// least `rescue_share` of the input's UV border; the test reads nothing atlas-wide that a
+    /// commit changes, so a judgement made ahead holds as before); if so, puts the problem back
+    /// to its starting layout with only its own fixed vertices (none frozen) for the rescue.
+    fn start_rescue(&mut self, g: &OpGeometry) -> bool {
+        // NaN lengths never qualify.
+        let long = g.len_a + g.len_b >= self.opts.rescue_share * self.border_len_input;
+        if !long {
+            return false;
+        }
+        for (i, &v) in self.local_verts.iter().enumerate() {
+            self.problem.uv[i] = self.start_uv[i];
+            self.problem.fixed[i] = self.base_fixed[i];
+            self.log.pos.set(&mut self.t.uv_pos, v as usize, self.start_uv[i]);
+        }
+        true
     }
 
     /// Whether the bounding box of chart a and of chart b as aligned and fused exceeds

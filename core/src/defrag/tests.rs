@@ -918,3 +918,47 @@ fn the_merged_chart_keeps_its_neighbours_while_its_operations_are_rescored() {
     assert!(!e.ops[towards_below as usize].island, "scored as if the merged chart had none");
     assert!(!e.island_lookahead(merged, below) && !e.island_lookahead(below, merged));
 }
+
+/// Throws every free vertex far from where it was: a layout no check lets through.
+struct Wreck;
+
+impl LocalSolver for Wreck {
+    fn solve(&mut self, p: &mut LocalProblem) -> Result<SolveReport, SolveError> {
+        for (uv, &fixed) in p.uv.iter_mut().zip(&p.fixed) {
+            if !fixed {
+                *uv = [3.0 * uv[0] + 50.0, -2.0 * uv[1]];
+            }
+        }
+        Ok(SolveReport::default())
+    }
+}
+
+#[test]
+fn a_refused_layout_of_a_long_seam_goes_to_the_solvers_rescue() {
+    // The right half is stretched along the seam, so fusing moves vertices and frees a patch.
+    let stretched = |p: [f64; 3]| [100.0 + 4.0 * p[0], 30.0 + 4.8 * p[1]];
+    let m = two_halves(8, rigid(0.3, [60.0, 20.0], 4.0), stretched);
+    let merge = |solver: &mut dyn LocalSolver, opts: &MergeOptions| {
+        let mut t = prepare(&m);
+        merge_charts(&mut t, &ByError, solver, opts).expect("valid options").0
+    };
+    // No atlas-wide budget, which is checked first and sends no attempt to the rescue: the
+    // wrecked layout is refused for its local distortion or a fold.
+    let every =
+        MergeOptions { rescue_share: 0.0, global_distortion: 1e9, ..MergeOptions::default() };
+
+    // Alone, the wrecking solver gets every attempt refused.
+    let r = merge(&mut Wreck, &every);
+    assert_eq!((r.accepted, r.rescues), (0, 0), "{r:?}");
+
+    // With a rescue that keeps the fused layout, the merge passes on the second solve.
+    let mut rescued = crate::plugin::RescuedSolver::new(Box::new(Wreck), Box::new(Keep));
+    let r = merge(&mut rescued, &every);
+    assert_eq!(r.accepted, 1, "{r:?}");
+    assert!(r.rescues >= 1 && r.rescues_passed == 1, "{r:?}");
+
+    // A seam shorter than the share asked for is not worth a rescue.
+    let long_only = MergeOptions { rescue_share: 0.9, ..every.clone() };
+    let r = merge(&mut rescued, &long_only);
+    assert_eq!((r.accepted, r.rescues), (0, 0), "{r:?}");
+}

@@ -68,7 +68,7 @@ impl Default for DefragConfig {
             merge: MergeOptions::default(),
             scorer: "paper".into(),
             scorer_params: Params::new(),
-            solver: "arap".into(),
+            solver: "arap+slim".into(),
             solver_params: Params::new(),
             packer: "horizon".into(),
             packer_params: Params::new(),

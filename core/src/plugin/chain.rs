@@ -68,6 +68,31 @@ impl LocalSolver for SolverChain {
     }
 }
 
+/// A solver with a second one for the layouts the engine refuses (`--solver arap+slim`).
+pub struct RescuedSolver {
+    first: Box<dyn LocalSolver>,
+    rescue: Box<dyn LocalSolver>,
+}
+
+impl RescuedSolver {
+    pub fn new(first: Box<dyn LocalSolver>, rescue: Box<dyn LocalSolver>) -> Self {
+        Self { first, rescue }
+    }
+}
+
+impl LocalSolver for RescuedSolver {
+    fn solve(&mut self, problem: &mut LocalProblem) -> Result<SolveReport, SolveError> {
+        self.first.solve(problem)
+    }
+
+    fn solve_again(
+        &mut self,
+        problem: &mut LocalProblem,
+    ) -> Option<Result<SolveReport, SolveError>> {
+        Some(self.rescue.solve(problem))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -8,7 +8,7 @@ mod chain;
 mod packer;
 mod registry;
 
-pub use chain::SolverChain;
+pub use chain::{RescuedSolver, SolverChain};
 
 pub use packer::{
     ALL_ROTATIONS, Footprint, MAX_FOOTPRINT_CELLS, PackItem, PackOutput, Packer, PackerError,
@@ -153,4 +153,14 @@ pub enum SolveError {
 /// A solver instance is used by one worker at a time, so it may keep scratch buffers.
 pub trait LocalSolver: Send {
     fn solve(&mut self, problem: &mut LocalProblem) -> Result<SolveReport, SolveError>;
+
+    /// Solves `problem` again by another method, after the engine refused the layout `solve`
+    /// made of the same starting layout (given back in `problem`); `None` when this solver has
+    /// no other method (see [`RescuedSolver`]).
+    fn solve_again(
+        &mut self,
+        _problem: &mut LocalProblem,
+    ) -> Option<Result<SolveReport, SolveError>> {
+        None
+    }
 }

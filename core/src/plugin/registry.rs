@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use super::{LocalSolver, MergeScorer, Packer, SolverChain};
+use super::{LocalSolver, MergeScorer, Packer, RescuedSolver, SolverChain};
 
 /// The kinds of plugins.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]
@@ -168,7 +168,50 @@ impl Registry {
     /// `name` may be a fallback chain `a,b,...` (see [`SolverChain`]): each solver of the chain
     /// gets the parameters written `a.param`, and a plain `param` goes to every solver of the
     /// chain that declares it (it is unknown when none does).
+    ///
+    /// `name` may also be `first+rescue` (see [`RescuedSolver`]), each side a solver or a chain:
+    /// a parameter written `member.param` goes to the side that has that member, a plain one to
+    /// each side with a member that declares it.
     pub fn solver(&self, name: &str, params: &Params) -> Result<Box<dyn LocalSolver>, PluginError> {
+        if let Some((first, rescue)) = name.split_once('+') {
+            let mut used = vec![false; params.len()];
+            let mut side = |side: &str| -> Result<Box<dyn LocalSolver>, PluginError> {
+                let members: Vec<&str> = side.split(',').map(str::trim).collect();
+                let mut own = Params::new();
+                for (i, (key, value)) in params.iter().enumerate() {
+                    let key =
+                        match key.split_once('.') {
+                            // A lone solver takes its parameters plain.
+                            Some((owner, param)) if members.contains(&owner) => {
+                                if members.len() == 1 { param.to_string() } else { key.clone() }
+                            }
+                            Some(_) => continue,
+                            None if members.iter().any(|m| {
+                                self.solvers
+                                    .get(*m)
+                                    .is_some_and(|e| e.info.params.iter().any(|p| p.name == key))
+                            }) =>
+                            {
+                                key.clone()
+                            }
+                            None => continue,
+                        };
+                    own.insert(key, value.clone());
+                    used[i] = true;
+                }
+                self.solver(side, &own)
+            };
+            let (first, rescue) = (side(first)?, side(rescue)?);
+            if let Some(i) = used.iter().position(|u| !u) {
+                return Err(PluginError::UnknownParam {
+                    kind: PluginKind::Solver,
+                    name: name.to_string(),
+                    param: params.keys().nth(i).cloned().unwrap_or_default(),
+                    available: "parameters of the members, as `member.param`".into(),
+                });
+            }
+            return Ok(Box::new(RescuedSolver::new(first, rescue)));
+        }
         if !name.contains(',') {
             return (lookup(&self.solvers, PluginKind::Solver, name, params)?.factory)(params);
         }
@@ -411,5 +454,14 @@ mod tests {
         assert!(r.check(PluginKind::Packer, "a", &Params::new()).is_err());
         assert_eq!(r.names(PluginKind::Solver), vec!["a", "b"]);
         assert_eq!(r.info(PluginKind::Solver, "a").map(|i| i.params.len()), Some(1));
+
+        // A rescued solver: each side takes its members' parameters, and one nobody takes fails.
+        assert!(r.solver("a+b", &Params::new()).is_ok());
+        assert!(r.solver("a+b", &with("a.k")).is_ok());
+        assert!(r.solver("b+a", &with("k")).is_ok());
+        assert!(r.solver("a,b+b", &with("a.k")).is_ok());
+        assert!(matches!(r.solver("b+b", &with("k")), Err(PluginError::UnknownParam { .. })));
+        assert!(matches!(r.solver("a+b", &with("b.k")), Err(PluginError::UnknownParam { .. })));
+        assert!(matches!(r.solver("a+c", &Params::new()), Err(PluginError::UnknownName { .. })));
     }
 }

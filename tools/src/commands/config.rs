@@ -166,13 +166,14 @@ impl FileConfig {
     }
 }
 
-/// The parameters of the solver `name` (a chain gets each member's table, qualified `member.key`).
+/// The parameters of the solver `name` (a chain or a rescued solver gets each member's table,
+/// qualified `member.key`).
 fn solver_params(file: &FileConfig, name: &str) -> Params {
-    if !name.contains(',') {
+    if !name.contains([',', '+']) {
         return file.params(PluginKind::Solver, name);
     }
     let mut out = Params::new();
-    for member in name.split(',').map(str::trim) {
+    for member in name.split([',', '+']).map(str::trim) {
         for (k, v) in file.params(PluginKind::Solver, member) {
             out.insert(format!("{member}.{k}"), v);
         }
@@ -224,6 +225,7 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
             "one-sided-ration",
             defaults.one_sided_ration,
         )?,
+        rescue_share: pick(args.rescue_share, "rescue-share", defaults.rescue_share)?,
         speculate: !serial,
         cluster_faces: if serial {
             0
@@ -359,7 +361,7 @@ mod tests {
     fn defaults_without_a_file() {
         let cfg = defrag_config(&args(&[]), &registry()).unwrap();
         assert_eq!(cfg.merge, MergeOptions::default());
-        assert_eq!((cfg.scorer.as_str(), cfg.solver.as_str()), ("paper", "arap"));
+        assert_eq!((cfg.scorer.as_str(), cfg.solver.as_str()), ("paper", "arap+slim"));
         assert!(cfg.scorer_params.is_empty() && cfg.solver_params.is_empty());
     }
 
