@@ -196,12 +196,14 @@ fn folded(a2: f64, sign: f64) -> bool {
 }
 
 /// Calls `found(f, g)` for every pair of faces of `faces` (f < g in list order) whose UV
-/// triangles overlap. A sort-based uniform grid: each pair is tested once, in the cell that holds
-/// the lower-left corner of the intersection of their boxes.
+/// triangles overlap, leaving out the pairs of two faces that `exempt` holds (never tested). A
+/// sort-based uniform grid: each pair is tested once, in the cell that holds the lower-left
+/// corner of the intersection of their boxes.
 fn overlapping_pairs(
     t: &Topology,
     pos: &[[f64; 2]],
     faces: &[u32],
+    exempt: &[bool],
     mut found: impl FnMut(u32, u32),
 ) {
     if faces.len() < 2 {
@@ -248,6 +250,9 @@ fn overlapping_pairs(
                     continue;
                 }
                 let (f, g) = (faces[i], faces[j]);
+                if exempt[f as usize] && exempt[g as usize] {
+                    continue;
+                }
                 if triangles_overlap_beyond_noise(tri(t, pos, f as usize), tri(t, pos, g as usize))
                 {
                     found(f.min(g), f.max(g));
@@ -276,11 +281,9 @@ fn defects(
 ) {
     pairs.clear();
     folds.clear();
-    overlapping_pairs(t, pos, faces, |f, g| {
-        if !(anchored[f as usize] && anchored[g as usize]) {
-            pairs.push((f, g));
-        }
-    });
+    // Pairs within the anchor group are never repaired, so they are not even tested (most of
+    // the search time on venus, whose anchor groups hold two thirds of its faces).
+    overlapping_pairs(t, pos, faces, anchored, |f, g| pairs.push((f, g)));
     pairs.sort_unstable();
     for &f in faces {
         if !anchored[f as usize] && folded(signed_area2(tri(t, pos, f as usize)), sign) {

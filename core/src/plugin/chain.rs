@@ -1,5 +1,7 @@
-//! `SolverChain`: a fallback chain of local solvers (`--solver slim,arap`). Each problem goes to
-//! the first solver; when it fails, the next one gets the problem back as it was given, and so on.
+//! Solvers made of solvers. `SolverChain`, a fallback chain (`--solver slim,arap`): each problem
+//! goes to the first solver; when it fails, the next one gets the problem back as it was given,
+//! and so on. `RescuedSolver` (`--solver arap+slim`): the first solver solves every problem, and
+//! the second solves again the ones whose layout the engine refused (`LocalSolver::solve_again`).
 
 use super::{LocalProblem, LocalSolver, SolveError, SolveReport};
 
