@@ -33,7 +33,10 @@ pub fn run(args: &PluginsArgs) -> Result<()> {
         "Parameters go in a config file (`defrag --config FILE.toml`) as `[KIND.NAME]` tables,"
     );
     println!(
-        "e.g. `[solver.slim]` then `max-iterations = 20`; `--solver slim,arap` is a fallback chain."
+        "e.g. `[solver.slim]` then `max-iterations = 20`; `--solver slim,arap` is a fallback chain,"
+    );
+    println!(
+        "and `--solver arap+slim` (the default) solves again with slim the refused merges of long seams."
     );
     Ok(())
 }
