@@ -9,7 +9,6 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use super::PipelineError;
-use super::convert::output_sheet_path;
 use crate::build::cameras::PhotoCamera;
 use crate::build::exposure::{self, Exposure, ExposureOptions};
 use crate::build::frequency::{self, FrequencyOptions};
@@ -33,7 +32,7 @@ use crate::model::{ImageSource, Model, Origin};
 use crate::pack::{LayoutInput, PackOptions, PackReport, pack_layout};
 use crate::plugin::{Params, Registry};
 use crate::texture::coords::texel_to_uv;
-use crate::texture::encode::{EncodeOptions, write_image};
+use crate::texture::encode::EncodeOptions;
 use crate::texture::gutter::{Coverage, dilate};
 use crate::texture::raster::{PixelRect, rasterize_triangle};
 use crate::texture::resample::{
@@ -669,12 +668,7 @@ pub fn build(
         jpeg_quality: 92,
         protect: protect.clone(),
     };
-    let mut sheet_paths = Vec::new();
-    for (k, store) in res.sheets.iter().enumerate() {
-        let p = output_sheet_path(output, k, cfg.texture_format);
-        write_image(store, &p, &enc)?;
-        sheet_paths.push(p);
-    }
+    let sheet_paths = super::convert::write_sheets(&res.sheets, output, cfg.texture_format, &enc)?;
     // Unseen faces share the fill triangle for texturing, but in the output each of them gets
     // the triangle's centroid at all three corners: a zero-area UV that reads the fill colour,
     // instead of dozens of faces stacked on one triangle (overlapping UVs).

@@ -4,11 +4,13 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use rayon::prelude::*;
+
 use super::PipelineError;
 use crate::io::WriteOptions;
 use crate::model::ImageSource;
 use crate::texture::encode::{EncodeOptions, write_image};
-use crate::texture::{ImageFormat, decode};
+use crate::texture::{ImageFormat, TileStore, decode};
 
 /// Options of a conversion.
 #[derive(Clone, Debug)]
@@ -34,6 +36,26 @@ pub struct ConvertReport {
 pub fn output_sheet_path(output: &Path, k: usize, format: ImageFormat) -> PathBuf {
     let stem = output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     output.with_file_name(format!("{stem}_{k}.{}", format.extension()))
+}
+
+/// Writes `sheets` beside `output` (see [`output_sheet_path`]) in `enc`'s format, one encoder per
+/// sheet side by side: each encoder is single-threaded, and a sheet's file depends on nothing
+/// but its own texels, so the bytes are the same in any order. Returns the paths in sheet order.
+pub(super) fn write_sheets(
+    sheets: &[TileStore],
+    output: &Path,
+    format: ImageFormat,
+    enc: &EncodeOptions,
+) -> Result<Vec<PathBuf>, PipelineError> {
+    let paths = sheets
+        .par_iter()
+        .enumerate()
+        .map(|(k, store)| {
+            let path = output_sheet_path(output, k, format);
+            write_image(store, &path, enc).map(|()| path)
+        })
+        .collect::<Result<Vec<PathBuf>, _>>()?;
+    Ok(paths)
 }
 
 /// Converts `input` to `output`; never overwrites the input or its textures.

@@ -7,7 +7,6 @@ use std::time::Instant;
 
 use super::PipelineError;
 use super::background::{Background, Priority};
-use super::convert::output_sheet_path;
 use super::decode_ahead::DecodeAhead;
 use crate::defrag::{
     MergeOptions, MergeReport, MergedLayout, UntangleOptions, UntangleReport,
@@ -22,7 +21,7 @@ use crate::pack::{
 };
 use crate::plugin::{Params, Registry};
 use crate::texture::coords::texel_to_uv;
-use crate::texture::encode::{EncodeOptions, write_image};
+use crate::texture::encode::EncodeOptions;
 use crate::texture::gutter::MAX_RADIUS;
 use crate::texture::resample::{FaceMapping, ResampleOptions, ResampleReport, resample_sheets};
 use crate::texture::{ImageFormat, TileStore};
@@ -548,12 +547,7 @@ fn synthesize(
         jpeg_quality: cfg.jpeg_quality,
         protect: protect.to_vec(),
     };
-    let mut paths = Vec::with_capacity(out.sheets.len());
-    for (k, store) in out.sheets.iter().enumerate() {
-        let path = output_sheet_path(output, k, format);
-        write_image(store, &path, &enc)?;
-        paths.push(path);
-    }
+    let paths = super::convert::write_sheets(&out.sheets, output, format, &enc)?;
     out.report.ms_encode = ms(t);
     (out.report.ms_decode, out.report.ms_decode_wait) = (decoded.decode_ms, decoded.wait_ms);
     Ok((paths, Some(out.report)))

@@ -321,10 +321,13 @@ pub(crate) fn decode_zune(
     Ok(store)
 }
 
-/// Feeds `jpeg-encoder` one converted row at a time from the store.
+/// Feeds `jpeg-encoder` one converted row at a time from rows `first..first + height` of the
+/// store (one strip of the image, or all of it).
 struct StoreRows<'a> {
     store: &'a TileStore,
     gray: bool,
+    first: u32,
+    height: u32,
     /// One row as stored, reused for every row (`fill_buffers` takes `&self`).
     raw: RefCell<Vec<u8>>,
 }
@@ -361,15 +364,17 @@ impl jpeg_encoder::ImageBuffer for StoreRows<'_> {
         self.store.width() as u16
     }
     fn height(&self) -> u16 {
-        self.store.height() as u16
+        self.height as u16
     }
     fn fill_buffers(&self, y: u16, buffers: &mut [Vec<u8>; 4]) {
-        let y = y as u32;
+        let y = self.first + y as u32;
         let format = self.store.format();
         let bpp = format.bytes_per_pixel();
         let mut raw = self.raw.borrow_mut();
         self.store.read_row(y, 0, &mut raw);
-        if y > 0 && y.is_multiple_of(TILE) {
+        // Tile rows behind are not read again by this strip (a neighbouring strip may still
+        // read a shared one: it is then paged in again, the bytes are the same).
+        if y > self.first && y.is_multiple_of(TILE) {
             self.store.release_tile_rows(y / TILE - 1, y / TILE);
         }
         for px in raw.chunks_exact(bpp) {
@@ -388,17 +393,137 @@ impl jpeg_encoder::ImageBuffer for StoreRows<'_> {
     }
 }
 
-/// Writes `store` as a baseline JPEG of `quality` (1..=100) to `w`, row by row.
+/// The most MCU rows of one strip of a parallel encode (see [`encode`]): 512 rows of a 4:4:4
+/// image, so that venus's 3324-row sheet splits into seven strips.
+const MAX_STRIP_MCU_ROWS: u32 = 64;
+
+/// Strips encoded side by side and held (compressed) before they are written, so that memory
+/// stays bounded on a gigapixel sheet.
+const STRIPS_PER_BATCH: usize = 8;
+
+/// Writes `store` as a baseline JPEG of `quality` (1..=100) to `w`.
+///
+/// `jpeg-encoder` is single-threaded, and the sheet encode was the last single-threaded step of
+/// a defrag run (venus: 0.32 s of 16 MP with the second core idle). The image is cut into strips
+/// of whole MCU rows, each encoded on its own (in parallel, in batches), and the strips' scans
+/// are joined with restart markers (the restart interval is one strip): a restart resets the DC
+/// predictions exactly as a fresh encoder starts, so the file decodes to the same pixels as a
+/// single encode. The strip height depends on the image width alone, so the bytes do not
+/// depend on the thread count.
 pub(crate) fn encode(store: &TileStore, w: &mut dyn Write, quality: u8) -> Result<(), String> {
+    encode_in_strips(store, w, quality, MAX_STRIP_MCU_ROWS)
+}
+
+pub(super) fn encode_in_strips(
+    store: &TileStore,
+    w: &mut dyn Write,
+    quality: u8,
+    max_strip_mcu_rows: u32,
+) -> Result<(), String> {
+    use rayon::prelude::*;
+
     let (width, height) = (store.width(), store.height());
     if width > u16::MAX as u32 || height > u16::MAX as u32 {
         return Err(format!("JPEG cannot exceed 65535 pixels per side ({width}x{height})"));
     }
-    let rows = StoreRows {
-        store,
-        gray: store.format().channels <= 2,
-        raw: RefCell::new(vec![0u8; width as usize * store.format().bytes_per_pixel()]),
+    if width == 0 || height == 0 {
+        return Err(format!("JPEG needs a non-empty image ({width}x{height})"));
+    }
+    let quality = quality.clamp(1, 100);
+    let gray = store.format().channels <= 2;
+    // The crate's own choice (4:2:0 below quality 90), made explicit: the strips must agree on
+    // the MCU height.
+    let (sampling, mcu) = if gray || quality >= 90 {
+        (jpeg_encoder::SamplingFactor::F_1_1, 8)
+    } else {
+        (jpeg_encoder::SamplingFactor::F_2_2, 16)
     };
-    let enc = jpeg_encoder::Encoder::new(w, quality.clamp(1, 100));
-    enc.encode_image(rows).map_err(|e| e.to_string())
+    let mcus_per_row = width.div_ceil(mcu);
+    // The restart interval (MCUs per strip) must fit in 16 bits.
+    let mcu_rows = (u32::from(u16::MAX) / mcus_per_row).clamp(1, max_strip_mcu_rows.max(1));
+    let strip_rows = mcu_rows * mcu;
+    let n_strips = height.div_ceil(strip_rows) as usize;
+    let encode_rows = |first: u32, rows: u32, out: &mut dyn Write| {
+        let image = StoreRows {
+            store,
+            gray,
+            first,
+            height: rows,
+            raw: RefCell::new(vec![0u8; width as usize * store.format().bytes_per_pixel()]),
+        };
+        let mut enc = jpeg_encoder::Encoder::new(out, quality);
+        enc.set_sampling_factor(sampling);
+        enc.encode_image(image).map_err(|e| e.to_string())
+    };
+    if n_strips == 1 {
+        return encode_rows(0, height, w);
+    }
+    let strip = |k: usize| -> Result<Vec<u8>, String> {
+        let first = k as u32 * strip_rows;
+        let mut out = Vec::new();
+        encode_rows(first, strip_rows.min(height - first), &mut out)?;
+        Ok(out)
+    };
+    let write_err = |e: std::io::Error| e.to_string();
+    for batch in 0..n_strips.div_ceil(STRIPS_PER_BATCH) {
+        let ks = batch * STRIPS_PER_BATCH..((batch + 1) * STRIPS_PER_BATCH).min(n_strips);
+        let parts: Vec<Vec<u8>> =
+            ks.clone().into_par_iter().map(strip).collect::<Result<_, _>>()?;
+        for (k, part) in ks.zip(&parts) {
+            let scan = Scan::of(part)?;
+            if k == 0 {
+                // The first strip's header, with the whole image's height and the restart
+                // interval (DRI) before its scan header.
+                let mut header = part[..scan.sos].to_vec();
+                header[scan.sof + 5..scan.sof + 7].copy_from_slice(&(height as u16).to_be_bytes());
+                header.extend_from_slice(&[0xFF, 0xDD, 0x00, 0x04]);
+                header.extend_from_slice(&((mcu_rows * mcus_per_row) as u16).to_be_bytes());
+                w.write_all(&header).map_err(write_err)?;
+                w.write_all(&part[scan.sos..scan.data]).map_err(write_err)?;
+            } else {
+                w.write_all(&[0xFF, 0xD0 + ((k - 1) % 8) as u8]).map_err(write_err)?;
+            }
+            w.write_all(&part[scan.data..scan.end]).map_err(write_err)?;
+        }
+    }
+    w.write_all(&[0xFF, 0xD9]).map_err(write_err)
+}
+
+/// Where the parts of a baseline JPEG of one scan lie: the frame header (SOF0), the scan header
+/// (SOS), the entropy-coded data and the end marker.
+struct Scan {
+    sof: usize,
+    sos: usize,
+    data: usize,
+    end: usize,
+}
+
+impl Scan {
+    /// Reads the marker segments of a JPEG written by `jpeg-encoder` up to its scan.
+    fn of(jpeg: &[u8]) -> Result<Self, String> {
+        let bad = || "JPEG strip: unexpected encoder output".to_string();
+        if !jpeg.starts_with(&[0xFF, 0xD8]) || !jpeg.ends_with(&[0xFF, 0xD9]) {
+            return Err(bad());
+        }
+        let (mut i, mut sof) = (2, None);
+        while i + 4 <= jpeg.len() && jpeg[i] == 0xFF {
+            let len = usize::from(u16::from_be_bytes([jpeg[i + 2], jpeg[i + 3]]));
+            let next = i + 2 + len;
+            match jpeg[i + 1] {
+                0xC0 => sof = Some(i),
+                0xDA => {
+                    let sof = sof.ok_or_else(bad)?;
+                    if next > jpeg.len() - 2 {
+                        return Err(bad());
+                    }
+                    return Ok(Self { sof, sos: i, data: next, end: jpeg.len() - 2 });
+                }
+                // A restart interval of the encoder's own would clash with the strips' one.
+                0xDD => return Err(bad()),
+                _ => {}
+            }
+            i = next;
+        }
+        Err(bad())
+    }
 }

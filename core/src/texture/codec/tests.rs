@@ -634,3 +634,36 @@ fn writer_respects_protection_format_and_cleans_up() {
     drop(f32s);
     assert_eq!(files_in(dir.path()).len(), before, "{:?}", files_in(dir.path()));
 }
+
+#[test]
+fn jpeg_strips_joined_by_restart_markers_decode_to_the_single_encodes_pixels() {
+    use super::jpeg::{decode_zune, encode_in_strips};
+    let dir = tempfile::tempdir().unwrap();
+    // 4:4:4 colour (8-row MCUs), 4:2:0 colour (16-row MCUs), and gray.
+    for (f, quality) in
+        [(PixelFormat::RGB8, 95), (PixelFormat::RGB8, 80), (fmt(1, SampleType::U8), 90)]
+    {
+        let src = pattern_store(dir.path(), W, H, f);
+        let decoded = |max_strip_mcu_rows: u32, name: &str| {
+            let path = dir.path().join(name);
+            let mut bytes = Vec::new();
+            encode_in_strips(&src, &mut bytes, quality, max_strip_mcu_rows).unwrap();
+            std::fs::write(&path, &bytes).unwrap();
+            let img = file(&path);
+            let zune = decode_zune(super::open(&img).unwrap(), dir.path(), 64).unwrap();
+            (bytes, decode_to_store(&img, dir.path()).unwrap(), zune)
+        };
+        // One strip per MCU row: 33 to 65 strips, past the eight restart marker numbers and
+        // several batches; and the whole image as one strip.
+        let (many, many_moz, many_zune) = decoded(1, "many.jpg");
+        let (one, one_moz, one_zune) = decoded(u32::MAX, "one.jpg");
+        // Byte stuffing keeps 0xFF 0xD0..=0xD7 out of the scan data: these are restart markers.
+        let restarts =
+            |b: &[u8]| b.windows(2).filter(|m| m[0] == 0xFF && m[1] & 0xF8 == 0xD0).count();
+        assert!(restarts(&many) >= 32, "{} restart markers", restarts(&many));
+        assert_eq!(restarts(&one), 0);
+        assert_same(&many_moz, &one_moz);
+        assert_same(&many_zune, &one_zune);
+        assert!(psnr8(&samples(&src), &samples(&one_moz)) > 30.0);
+    }
+}
