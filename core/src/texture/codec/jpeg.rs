@@ -39,7 +39,9 @@
 //! # Encoding
 //!
 //! `jpeg-encoder` pulls one row at a time through its `ImageBuffer` trait (baseline, interleaved),
-//! so encoding never holds the image either. JPEG has no alpha channel: alpha is dropped (colour
+//! so encoding never holds the image either. Its encoder is single-threaded, so a sheet is encoded
+//! in strips of whole MCU rows side by side and the strips joined by restart markers (see
+//! [`encode`]). JPEG has no alpha channel: alpha is dropped (colour
 //! is written as stored, not premultiplied, because texture alpha in scans is a coverage mask and
 //! the colour under it is what a renderer ignoring alpha would show). 16-bit samples are rounded
 //! to 8 bits, f32 samples are clamped to 0..1 and scaled to 8 bits (no tone mapping). Stores with
