@@ -455,7 +455,10 @@ pub(super) fn encode_in_strips(
         };
         let mut enc = jpeg_encoder::Encoder::new(out, quality);
         enc.set_sampling_factor(sampling);
-        enc.encode_image(image).map_err(|e| e.to_string())
+        enc.encode_image(image).map_err(|e| e.to_string())?;
+        // The strip's last tile row too: no later row of this strip releases it.
+        store.release_tile_rows(first / TILE, (first + rows).div_ceil(TILE));
+        Ok(())
     };
     if n_strips == 1 {
         return encode_rows(0, height, w);
