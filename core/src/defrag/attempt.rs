@@ -484,11 +484,7 @@ impl Engine<'_> {
                     rerun += 1;
                     self.report.freeze_reruns += 1;
                     // Rerun from the fused layout with the offending vertices held there.
-                    for (i, &v) in self.local_verts.iter().enumerate() {
-                        self.problem.uv[i] = self.start_uv[i];
-                        self.problem.fixed[i] = self.base_fixed[i] || self.vert_frozen[v as usize];
-                        self.log.pos.set(&mut self.t.uv_pos, v as usize, self.start_uv[i]);
-                    }
+                    self.restart_from_fused(true);
                 }
             }
         }
@@ -504,12 +500,18 @@ impl Engine<'_> {
         if !long {
             return false;
         }
+        self.restart_from_fused(false);
+        true
+    }
+
+    /// Puts the problem back to the fused starting layout the solver began from, with the
+    /// patch's own fixed vertices and, if `frozen`, the ones frozen since held too.
+    fn restart_from_fused(&mut self, frozen: bool) {
         for (i, &v) in self.local_verts.iter().enumerate() {
             self.problem.uv[i] = self.start_uv[i];
-            self.problem.fixed[i] = self.base_fixed[i];
+            self.problem.fixed[i] = self.base_fixed[i] || (frozen && self.vert_frozen[v as usize]);
             self.log.pos.set(&mut self.t.uv_pos, v as usize, self.start_uv[i]);
         }
-        true
     }
 
     /// Whether the bounding box of chart a and of chart b as aligned and fused exceeds
