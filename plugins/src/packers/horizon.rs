@@ -329,6 +329,8 @@ impl Sheet {
         let mut best: Option<(u64, u32, u32)> = None;
         let mut witness = 0usize;
         let (mut floor_witness, mut ceiling_witness) = (0usize, 0usize);
+        // Sheet columns (not chart columns) of the last floor and ceiling that ruled a position out.
+        let (mut sheet_floor, mut sheet_ceiling) = (0u32, 0u32);
         let last = self.width_limit - p.width;
         let mut x = 0;
         'x: while x <= last {
@@ -364,14 +366,29 @@ impl Sheet {
             let waste = |y: u32| (n * u64::from(y) + bottoms).saturating_sub(floors);
             let beaten = |y: u32| best.is_some_and(|(w, _, _)| waste(y) >= w);
             // One sweep finds the rest height (the highest gap floor under the chart) and the
-            // ceiling it must stay under (the lowest gap top over it), and stops once they cross.
-            // The two columns that crossed last time (the floor's and the ceiling's) are tried
-            // first: they usually cross again at the next position.
+            // ceiling it must stay under (the lowest gap top over it), and stops once they cross
+            // or the waste is beaten. The two columns that crossed last time (the floor's and the
+            // ceiling's) are tried first: they usually cross again at the next position.
             let (f, k) = (p.cols[floor_witness], p.cols[ceiling_witness]);
             let (cf, ck) = ((x + f.0) as usize, (x + k.0) as usize);
-            if hi[ck] < k.2 || lo[cf].saturating_sub(f.1) > hi[ck] - k.2 {
+            let y_floor = lo[cf].saturating_sub(f.1);
+            if hi[ck] < k.2 || y_floor > hi[ck] - k.2 || beaten(y_floor) {
                 x += 1;
                 continue;
+            }
+            // The same test on the sheet columns that ruled out the last swept position: the
+            // obstacle stays put while the chart slides over it, so it usually rules out the
+            // next positions too, whichever column of the chart now lies over it (venus: 8.6 M
+            // sweeps of 199 M columns → 3.9 M of 68 M; packing 1.02 → 0.59 s).
+            if contiguous && x <= sheet_floor.min(sheet_ceiling) {
+                let (cf, ck) = (sheet_floor as usize, sheet_ceiling as usize);
+                let f = p.cols[(sheet_floor - x) as usize];
+                let k = p.cols[(sheet_ceiling - x) as usize];
+                let y_floor = lo[cf].saturating_sub(f.1);
+                if hi[ck] < k.2 || y_floor > hi[ck] - k.2 || beaten(y_floor) {
+                    x += 1;
+                    continue;
+                }
             }
             let mut y = 0;
             let mut cap = u32::MAX;
@@ -393,12 +410,15 @@ impl Sheet {
                     y = v;
                     yi = i;
                     if beaten(y) {
+                        floor_witness = yi;
+                        (sheet_floor, sheet_ceiling) = (x + dx, x + dx);
                         x += 1;
                         continue 'x;
                     }
                 }
                 if y > cap {
                     (floor_witness, ceiling_witness) = (yi, ci);
+                    (sheet_floor, sheet_ceiling) = (x + p.cols[yi].0, x + p.cols[ci].0);
                     x += 1;
                     continue 'x;
                 }
