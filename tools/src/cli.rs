@@ -301,10 +301,11 @@ pub struct DefragArgs {
     /// is first tried with the staying chart held still, so its texels stay verbatim).
     #[arg(long)]
     pub no_one_sided: bool,
-    /// A merge holding the staying chart still may spend at most this many times its seam's fair
-    /// share of g; beyond, both sides are re-optimized (0: no limit) [default: 2].
-    #[arg(long)]
-    pub one_sided_ration: Option<f64>,
+    /// A merge holding the staying chart still, or rescued by the second solver, may spend at
+    /// most this many times its seam's fair share of g; beyond, a held merge re-optimizes both
+    /// sides and a rescue is refused (0: no limit) [default: 2].
+    #[arg(long, alias = "one-sided-ration")]
+    pub energy_ration: Option<f64>,
     /// A refused merge whose seams are at least this share of the input's UV border is solved
     /// once more by the solver's rescue (`--solver arap+slim`; 0: every refused merge)
     /// [default: 0.002].

@@ -102,10 +102,11 @@ pub struct MergeOptions {
     /// moving chart's texels are resampled after its rigid move anyway, so a merge that passes
     /// this way keeps every texel of the staying chart copyable verbatim.
     pub one_sided: bool,
-    /// A merge with the staying chart held still may raise the atlas energy by at most this many
-    /// times its seam's fair share of the budget g (see `Engine::over_one_sided_ration`); beyond,
-    /// it is tried on both sides (0: no limit).
-    pub one_sided_ration: f64,
+    /// A merge with the staying chart held still, or a rescued one (see `rescue_share`), may
+    /// raise the atlas energy by at most this many times its seam's fair share of the budget g
+    /// (see `Engine::over_ration`); beyond, a held merge is tried on both sides and a rescue is
+    /// refused (0: no limit).
+    pub energy_ration: f64,
     /// An attempt whose solved layout the checks refuse (a fold, the local distortion, or an
     /// overlap that freezing and growing the area left) is solved once more by the solver's
     /// rescue method (`--solver arap+slim`, see `LocalSolver::solve_again`) when its seams are at
@@ -133,7 +134,7 @@ impl Default for MergeOptions {
             cluster_faces: 0,
             speculate: true,
             one_sided: true,
-            one_sided_ration: 2.0,
+            energy_ration: 2.0,
             rescue_share: 0.002,
         }
     }
@@ -159,8 +160,8 @@ impl MergeOptions {
         if !ok(self.time_limit) {
             return bad("time-limit", "expected a finite number of seconds ≥ 0");
         }
-        if !ok(self.one_sided_ration) {
-            return bad("one-sided-ration", "expected a finite number ≥ 0");
+        if !ok(self.energy_ration) {
+            return bad("energy-ration", "expected a finite number ≥ 0");
         }
         if !ok(self.rescue_share) {
             return bad("rescue-share", "expected a finite number ≥ 0");

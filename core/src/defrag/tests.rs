@@ -184,7 +184,7 @@ fn holding_the_staying_chart_keeps_its_uvs_bit_for_bit() {
     let m = two_halves(8, rigid(0.3, [60.0, 20.0], 4.0), stretched);
     let before = left_half_uvs(&m, 8);
 
-    let held = MergeOptions { one_sided_ration: 0.0, ..MergeOptions::default() };
+    let held = MergeOptions { energy_ration: 0.0, ..MergeOptions::default() };
     let (t, r) = run(&m, &held);
     assert_eq!((r.accepted, r.one_sided_merges), (1, 1), "{r:?}");
     assert_eq!(left_half_uvs(&merged_model(&m, &t), 8), before);
@@ -196,7 +196,7 @@ fn holding_the_staying_chart_keeps_its_uvs_bit_for_bit() {
     assert_ne!(left_half_uvs(&merged_model(&m, &t), 8), before);
 
     // A one-sided merge over its ration of the budget is done on both sides instead.
-    let rationed = MergeOptions { one_sided_ration: 1e-9, ..MergeOptions::default() };
+    let rationed = MergeOptions { energy_ration: 1e-9, ..MergeOptions::default() };
     let (_, r) = run(&m, &rationed);
     assert_eq!((r.accepted, r.one_sided_merges), (1, 0), "{r:?}");
 }
@@ -961,4 +961,12 @@ fn a_refused_layout_of_a_long_seam_goes_to_the_solvers_rescue() {
     let long_only = MergeOptions { rescue_share: 0.9, ..every.clone() };
     let r = merge(&mut rescued, &long_only);
     assert_eq!((r.accepted, r.rescues), (0, 0), "{r:?}");
+
+    // A rescued layout that spends more than its ration of the budget is refused too (the
+    // fused layout keeps the stretch, so it costs energy; g is huge here, so the ration is
+    // made tiny to bind).
+    let rationed = MergeOptions { energy_ration: 1e-20, ..every.clone() };
+    let r = merge(&mut rescued, &rationed);
+    assert_eq!((r.accepted, r.rescues_passed), (0, 0), "{r:?}");
+    assert!(r.rescues >= 1 && r.rejected.global_distortion >= 1, "{r:?}");
 }

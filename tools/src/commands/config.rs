@@ -33,7 +33,7 @@ pub const TOP_LEVEL_KEYS: [&str; 23] = [
     "split-rigid",
     "no-solve-repair",
     "no-one-sided",
-    "one-sided-ration",
+    "energy-ration",
     "scorer",
     "solver",
     "packer",
@@ -220,11 +220,7 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
         no_retry: args.no_retry || file.flag("no-retry")?,
         solve_repair: !(args.no_solve_repair || file.flag("no-solve-repair")?),
         one_sided: !(args.no_one_sided || file.flag("no-one-sided")?),
-        one_sided_ration: pick(
-            args.one_sided_ration,
-            "one-sided-ration",
-            defaults.one_sided_ration,
-        )?,
+        energy_ration: pick(args.energy_ration, "energy-ration", defaults.energy_ration)?,
         rescue_share: pick(args.rescue_share, "rescue-share", defaults.rescue_share)?,
         speculate: !serial,
         cluster_faces: if serial {
