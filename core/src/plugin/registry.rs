@@ -165,65 +165,62 @@ impl Registry {
 
     /// Builds the solver `name`, refusing unknown names and parameters.
     ///
-    /// `name` may be a fallback chain `a,b,...` (see [`SolverChain`]): each solver of the chain
-    /// gets the parameters written `a.param`, and a plain `param` goes to every solver of the
-    /// chain that declares it (it is unknown when none does).
-    ///
-    /// `name` may also be `first+rescue` (see [`RescuedSolver`]), each side a solver or a chain:
-    /// a parameter written `member.param` goes to the side that has that member, a plain one to
-    /// each side with a member that declares it.
+    /// `name` may be a fallback chain `a,b,...` (see [`SolverChain`]), and it may be
+    /// `first+rescue` (see [`RescuedSolver`]), each side a solver or a chain. Every member gets
+    /// the parameters written `member.param`, and a plain `param` goes to every member that
+    /// declares it (it is unknown when none does). A lone solver takes its parameters plain.
     pub fn solver(&self, name: &str, params: &Params) -> Result<Box<dyn LocalSolver>, PluginError> {
-        if let Some((first, rescue)) = name.split_once('+') {
-            let mut used = vec![false; params.len()];
-            let mut side = |side: &str| -> Result<Box<dyn LocalSolver>, PluginError> {
-                let members: Vec<&str> = side.split(',').map(str::trim).collect();
-                let mut own = Params::new();
-                for (i, (key, value)) in params.iter().enumerate() {
-                    let key =
-                        match key.split_once('.') {
-                            // A lone solver takes its parameters plain.
-                            Some((owner, param)) if members.contains(&owner) => {
-                                if members.len() == 1 { param.to_string() } else { key.clone() }
-                            }
-                            Some(_) => continue,
-                            None if members.iter().any(|m| {
-                                self.solvers
-                                    .get(*m)
-                                    .is_some_and(|e| e.info.params.iter().any(|p| p.name == key))
-                            }) =>
-                            {
-                                key.clone()
-                            }
-                            None => continue,
-                        };
-                    own.insert(key, value.clone());
-                    used[i] = true;
-                }
-                self.solver(side, &own)
-            };
-            let (first, rescue) = (side(first)?, side(rescue)?);
-            if let Some(i) = used.iter().position(|u| !u) {
-                return Err(PluginError::UnknownParam {
-                    kind: PluginKind::Solver,
-                    name: name.to_string(),
-                    param: params.keys().nth(i).cloned().unwrap_or_default(),
-                    available: "parameters of the members, as `member.param`".into(),
-                });
-            }
-            return Ok(Box::new(RescuedSolver::new(first, rescue)));
-        }
-        if !name.contains(',') {
+        if !name.contains([',', '+']) {
             return (lookup(&self.solvers, PluginKind::Solver, name, params)?.factory)(params);
         }
-        let names: Vec<&str> = name.split(',').map(str::trim).collect();
+        let (first, rescue) = match name.split_once('+') {
+            Some((first, rescue)) => (first, Some(rescue)),
+            None => (name, None),
+        };
+        let sides: Vec<Vec<&str>> = std::iter::once(first)
+            .chain(rescue)
+            .map(|side| side.split(',').map(str::trim).collect())
+            .collect();
+        let members: Vec<&str> = sides.iter().flatten().copied().collect();
+        let mut tables = self.route_solver_params(name, &members, params)?.into_iter();
+        let mut built = Vec::with_capacity(sides.len());
+        for side in &sides {
+            let mut solvers = Vec::with_capacity(side.len());
+            for &member in side {
+                let own = tables.next().unwrap_or_default();
+                let entry = lookup(&self.solvers, PluginKind::Solver, member, &own)?;
+                solvers.push((entry.factory)(&own)?);
+            }
+            built.push(match solvers.len() {
+                1 => solvers.pop().expect("one solver"),
+                _ => Box::new(SolverChain::new(solvers)) as Box<dyn LocalSolver>,
+            });
+        }
+        let rescue = if built.len() == 2 { built.pop() } else { None };
+        let first = built.pop().expect("the first side");
+        Ok(match rescue {
+            Some(rescue) => Box::new(RescuedSolver::new(first, rescue)),
+            None => first,
+        })
+    }
+
+    /// The parameter table of each member of the composite solver `name`: `member.param` goes
+    /// to every occurrence of that member, a plain `param` to every member declaring it. A key
+    /// that reaches no member is an error listing what the members accept.
+    fn route_solver_params(
+        &self,
+        name: &str,
+        members: &[&str],
+        params: &Params,
+    ) -> Result<Vec<Params>, PluginError> {
+        let mut tables = Vec::with_capacity(members.len());
         let mut used = vec![false; params.len()];
-        let mut solvers = Vec::with_capacity(names.len());
-        for &n in &names {
-            let entry = lookup(&self.solvers, PluginKind::Solver, n, &Params::new())?;
+        for &member in members {
+            let entry = lookup(&self.solvers, PluginKind::Solver, member, &Params::new())?;
             let mut own = Params::new();
             for (i, (key, value)) in params.iter().enumerate() {
                 let param = match key.split_once('.') {
-                    Some((owner, param)) if owner == n => param,
+                    Some((owner, param)) if owner == member => param,
                     Some(_) => continue,
                     None if entry.info.params.iter().any(|p| p.name == key) => key.as_str(),
                     None => continue,
@@ -231,25 +228,25 @@ impl Registry {
                 own.insert(param.to_string(), value.clone());
                 used[i] = true;
             }
-            let entry = lookup(&self.solvers, PluginKind::Solver, n, &own)?;
-            solvers.push((entry.factory)(&own)?);
+            tables.push(own);
         }
         if let Some(i) = used.iter().position(|u| !u) {
-            let key = params.keys().nth(i).cloned().unwrap_or_default();
-            let mut available = Vec::new();
-            for &n in &names {
-                if let Some(e) = self.solvers.get(n) {
-                    available.extend(e.info.params.iter().map(|p| format!("{n}.{}", p.name)));
+            let mut available: Vec<String> = Vec::new();
+            for (k, &member) in members.iter().enumerate() {
+                if let Some(e) = self.solvers.get(member)
+                    && !members[..k].contains(&member)
+                {
+                    available.extend(e.info.params.iter().map(|p| format!("{member}.{}", p.name)));
                 }
             }
             return Err(PluginError::UnknownParam {
                 kind: PluginKind::Solver,
                 name: name.to_string(),
-                param: key,
+                param: params.keys().nth(i).cloned().unwrap_or_default(),
                 available: available.join(", "),
             });
         }
-        Ok(Box::new(SolverChain::new(solvers)))
+        Ok(tables)
     }
 
     /// Builds the packer `name`, refusing unknown names and parameters.
@@ -460,6 +457,8 @@ mod tests {
         assert!(r.solver("a+b", &with("a.k")).is_ok());
         assert!(r.solver("b+a", &with("k")).is_ok());
         assert!(r.solver("a,b+b", &with("a.k")).is_ok());
+        assert!(r.solver("a+a", &with("a.k")).is_ok());
+        assert!(matches!(r.solver("a+b+b", &Params::new()), Err(PluginError::UnknownName { .. })));
         assert!(matches!(r.solver("b+b", &with("k")), Err(PluginError::UnknownParam { .. })));
         assert!(matches!(r.solver("a+b", &with("b.k")), Err(PluginError::UnknownParam { .. })));
         assert!(matches!(r.solver("a+c", &Params::new()), Err(PluginError::UnknownName { .. })));
