@@ -79,12 +79,14 @@ struct Start {
     area2: Vec<f64>,
     /// Orientation of the chart: the sign of its net area.
     chart_sign: f64,
-    /// [`Chart::patch_energy`] of each vertex.
+    /// [`Chart::patch_energy`] of each vertex that may move (NaN for the others, never read).
     patch_energy: Vec<f64>,
 }
 
 impl Start {
-    fn of(chart: &Chart) -> Self {
+    /// The chart as it is now; the patch energies only of the vertices `movable` tells (every
+    /// corner of a clashing pair that is free), the only ones [`Chart::faces_fit`] reads them of.
+    fn of(chart: &Chart, movable: impl Fn(u32) -> bool) -> Self {
         let n = chart.tri.len() as u32;
         let net: f64 = (0..n).map(|f| signed_area2(chart.tri_of(f))).sum();
         Start {
@@ -92,7 +94,9 @@ impl Start {
             sign: (0..n).map(|f| signed_area2(chart.tri_of(f)).signum()).collect(),
             area2: (0..n).map(|f| signed_area2(chart.tri_of(f)).abs()).collect(),
             chart_sign: if net < 0.0 { -1.0 } else { 1.0 },
-            patch_energy: (0..chart.pos.len() as u32).map(|v| chart.patch_energy(v)).collect(),
+            patch_energy: (0..chart.pos.len() as u32)
+                .map(|v| if movable(v) { chart.patch_energy(v) } else { f64::NAN })
+                .collect(),
         }
     }
 }
@@ -203,7 +207,7 @@ impl<'a> Chart<'a> {
         }
         let pinned = vec![false; tri.len()];
         let folded = vec![false; tri.len()];
-        let mut chart = Chart {
+        Chart {
             input,
             faces,
             tri,
@@ -214,9 +218,7 @@ impl<'a> Chart<'a> {
             nb_items: Vec::new(),
             pinned,
             folded,
-        };
-        chart.find_neighbours(0.0);
-        chart
+        }
     }
 
     fn tri_of(&self, f: u32) -> Tri2 {
@@ -234,7 +236,9 @@ impl<'a> Chart<'a> {
 
     /// Fills the neighbour lists with the faces whose boxes, widened by `widen`, meet, from a
     /// uniform grid whose cells are about twice the mean face box, so a face meets a handful of
-    /// cells.
+    /// cells. Pairs of two pinned faces are left out: they never clash, and no move reaches
+    /// them (a face around a moving vertex has a free corner). On venus two thirds of the faces
+    /// are pinned.
     fn find_neighbours(&mut self, widen: f64) {
         let n = self.tri.len();
         let boxes: Vec<[f64; 4]> = (0..n as u32)
@@ -269,7 +273,11 @@ impl<'a> Chart<'a> {
             local.clear();
             local.extend(run.iter().map(|&(_, f)| boxes[f as usize]));
             for (i, (&(_, f), bf)) in run.iter().zip(&local).enumerate() {
+                let f_pinned = self.pinned[f as usize];
                 for (&(_, g), bg) in run[i + 1..].iter().zip(&local[i + 1..]) {
+                    if f_pinned && self.pinned[g as usize] {
+                        continue;
+                    }
                     if meet(bf, bg) && key(c(bf[0].max(bg[0])), c(bf[1].max(bg[1]))) == k {
                         pairs.push((f, g));
                     }
@@ -462,6 +470,10 @@ pub(crate) fn separate(
     for (f, t) in chart.tri.iter().enumerate() {
         chart.pinned[f] = t.iter().all(|&v| !free[v as usize]);
     }
+    if chart.pinned.iter().all(|&p| p) {
+        return ChartClashes::default();
+    }
+    chart.find_neighbours(0.0);
     let pairs = chart.count_all();
     let found = pairs.len();
     if found == 0 {
@@ -470,7 +482,13 @@ pub(crate) fn separate(
     // Moves begin: faces may now reach anything within the widest move of their boxes.
     chart.find_neighbours(MAX_SHIFT);
     chart.mark_folded();
-    let start = Start::of(&chart);
+    let mut movable = vec![false; verts.len()];
+    for &(f, g) in &pairs {
+        for v in chart.tri[f as usize].into_iter().chain(chart.tri[g as usize]) {
+            movable[v as usize] = free[v as usize];
+        }
+    }
+    let start = Start::of(&chart, |v| movable[v as usize]);
     let steps: Vec<[f64; 2]> = STEPS
         .iter()
         .flat_map(|&r| {
@@ -573,7 +591,8 @@ mod tests {
         };
         let verts = [0, 1, 2, 3, 4];
         let mut chart = Chart::new(&input, &[0, 1], &verts, &verts, &uv);
-        let start = Start::of(&chart);
+        chart.find_neighbours(0.0);
+        let start = Start::of(&chart, |_| true);
         assert!(start.sign[1] < 0.0 && start.area2[1] < 2e-6 && start.chart_sign > 0.0);
         // Vertex 0 moved off the degenerate face's line: to one side it opens clockwise (against
         // the chart), to the other counter-clockwise.
