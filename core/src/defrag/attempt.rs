@@ -376,7 +376,6 @@ impl Engine<'_> {
         g: &OpGeometry,
         solver: &mut dyn LocalSolver,
     ) -> Result<(f64, f64, f64), RejectReason> {
-        self.rescuing = false;
         if g.inter {
             if self.merged_too_large(g) {
                 return Err(RejectReason::TooLarge);
@@ -438,7 +437,7 @@ impl Engine<'_> {
                 }
             }
             let t = Instant::now();
-            let verdict = self.verdict(g);
+            let verdict = self.verdict(g, rescued.is_some());
             self.report.timings.checks_ms += ms(t);
             match verdict {
                 Verdict::Pass { out_num, out_den, in_num } => {
@@ -456,7 +455,7 @@ impl Engine<'_> {
                 Verdict::Overlap => {
                     if self.opts.solve_repair {
                         self.report.separations += 1;
-                        if let Some(pass) = self.separate_and_judge(g) {
+                        if let Some(pass) = self.separate_and_judge(g, rescued.is_some()) {
                             self.report.separations_done += 1;
                             self.report.rescues_passed += u64::from(rescued.is_some());
                             return Ok(pass);
@@ -502,7 +501,6 @@ impl Engine<'_> {
             return false;
         }
         self.restart_from_fused(false);
-        self.rescuing = true;
         true
     }
 
@@ -558,8 +556,9 @@ impl Engine<'_> {
     }
 
     /// The checks after a solve, cheapest first: atlas-wide energy budget, local energy, folds,
-    /// then overlaps between optimized faces and the whole merged chart.
-    fn verdict(&mut self, g: &OpGeometry) -> Verdict {
+    /// then overlaps between optimized faces and the whole merged chart. `rescued`: the layout
+    /// is the solver's rescue, which is held to the energy ration (see [`Self::over_ration`]).
+    fn verdict(&mut self, g: &OpGeometry, rescued: bool) -> Verdict {
         let (mut out_num, mut out_den, mut in_num) = (0.0, 0.0, 0.0);
         for &f in &self.opt_faces {
             let f = f as usize;
@@ -574,7 +573,7 @@ impl Engine<'_> {
         if self.over_budget(self.energy_num, out_num, in_num) {
             return Verdict::Reject(RejectReason::GlobalDistortion);
         }
-        if (self.hold.is_some() || self.rescuing) && self.over_ration(g, out_num - in_num) {
+        if (self.hold.is_some() || rescued) && self.over_ration(g, out_num - in_num) {
             // Not booked: a held merge is tried again on both sides at once; a rescue leaves
             // its first refusal standing.
             return Verdict::Reject(RejectReason::GlobalDistortion);
@@ -669,7 +668,7 @@ impl Engine<'_> {
     /// Moves free vertices to separate the offending pairs and judges the result again; the
     /// energies of a passing layout, or `None` (the offenders are then the pairs still
     /// overlapping, or those of the first verdict if the new one failed on another check).
-    fn separate_and_judge(&mut self, g: &OpGeometry) -> Option<(f64, f64, f64)> {
+    fn separate_and_judge(&mut self, g: &OpGeometry, rescued: bool) -> Option<(f64, f64, f64)> {
         self.sep_pairs.clear();
         self.sep_pairs.extend_from_slice(&self.offenders);
         let t = Instant::now();
@@ -679,7 +678,7 @@ impl Engine<'_> {
             return None;
         }
         let t = Instant::now();
-        let verdict = self.verdict(g);
+        let verdict = self.verdict(g, rescued);
         self.report.timings.checks_ms += ms(t);
         match verdict {
             Verdict::Pass { out_num, out_den, in_num } => Some((out_num, out_den, in_num)),

@@ -118,8 +118,6 @@ pub(crate) struct Engine<'t> {
     pub global_checks: Vec<(f64, f64)>,
     /// The chart held still by the attempt in progress (see `MergeOptions::one_sided`).
     pub hold: Option<ChartId>,
-    /// Whether the layout being judged is the solver's rescue (see `MergeOptions::rescue_share`).
-    pub rescuing: bool,
 }
 
 /// The state of an engine that a cluster's fork copies (everything but scratch and logs).
@@ -389,7 +387,6 @@ impl<'t> Engine<'t> {
             record_checks: false,
             global_checks: Vec::new(),
             hold: None,
-            rescuing: false,
             t,
         }
     }
