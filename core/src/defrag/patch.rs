@@ -157,9 +157,10 @@ impl Engine<'_> {
             p.triangles.push(tri);
             let mut target = orig_tri(self.t, f as usize);
             // The target takes the orientation the face has now (mirrored charts, and faces
-            // folded in the input that an earlier step turned over), so that the solver keeps
-            // every face the way the fold check wants it. Mirroring leaves the isometric energy
-            // unchanged.
+            // folded in the input that an earlier step turned over), so that a solver reading
+            // target orientations finds them consistent with the layout (the built-in solvers
+            // orient every triangle like the patch and unfold the rest). Mirroring leaves the
+            // isometric energy unchanged.
             if self.face_mirrored[f as usize] {
                 target.iter_mut().for_each(|q| q[0] = -q[0]);
             }

@@ -306,7 +306,7 @@ impl SlimSolver {
         self.tris.clear();
         let mut wrong = 0;
         for (&v, &target) in problem.triangles.iter().zip(&problem.targets) {
-            let expected = state.expected(target);
+            let expected = state.expected();
             let (_, finv) = local_frame(target, f64::from(expected));
             let distinct = v[0] != v[1] && v[1] != v[2] && v[0] != v[2];
             let moving = v.iter().any(|&c| !problem.fixed[c as usize]);

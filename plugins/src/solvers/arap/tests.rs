@@ -80,19 +80,11 @@ fn check_contract(before: &LocalProblem, after: &LocalProblem, report: &SolveRep
         assert!(b[0].is_finite() && b[1].is_finite(), "vertex {v} not finite");
     }
     // A flip is a triangle that had its expected orientation at the start and lost it; expected is
-    // the target's orientation times the patch's mirror state (majority of current × target).
-    let agreement: f64 = before
-        .triangles
-        .iter()
-        .zip(&before.targets)
-        .map(|(&t, &g)| {
-            f64::from(orientation(corners(&before.uv, t)) * orientation(g)) * signed_area2(g).abs()
-        })
-        .sum();
-    let mirror = if agreement < 0.0 { -1 } else { 1 };
-    for (&t, &g) in before.triangles.iter().zip(&before.targets) {
-        let expected = mirror * orientation(g);
-        if expected != 0 && orientation(corners(&before.uv, t)) == expected {
+    // the patch's orientation (the sign of its total current area), for every triangle.
+    let total: f64 = before.triangles.iter().map(|&t| signed_area2(corners(&before.uv, t))).sum();
+    let expected = if total < 0.0 { -1 } else { 1 };
+    for &t in &before.triangles {
+        if orientation(corners(&before.uv, t)) == expected {
             assert_eq!(orientation(corners(&after.uv, t)), expected, "triangle {t:?} flipped");
         }
     }
@@ -221,7 +213,7 @@ fn mirrored_targets_and_mirrored_patches() {
 }
 
 #[test]
-fn folds_of_the_original_layout_are_kept() {
+fn folds_of_the_original_layout_are_not_restored() {
     let (nx, ny) = (10, 10);
     let (mut rest, tris) = grid(nx, ny, 0.0, [0.0, 0.0], 15);
     // Fold the original layout: push vertex (4, 4) past its neighbour (5, 4), which inverts some of
@@ -235,10 +227,10 @@ fn folds_of_the_original_layout_are_kept() {
     let mut p = before.clone();
     let report = solve(&mut p).expect("solve");
     check_contract(&before, &p, &report);
-    // The reflection-invariant energy calls the original perfect: the solver returns to it, folds
-    // included, instead of fighting them.
-    assert!(report.energy_after < 1e-6, "{report:?}");
-    assert!((p.uv[v][0] - 5.4).abs() < 1e-3 && (p.uv[v][1] - 4.2).abs() < 1e-3, "{:?}", p.uv[v]);
+    // The reflection-invariant energy would call the folded original perfect, but a fold shares
+    // texels with its neighbours (and, on a seam, with the chart fused across it): every triangle
+    // keeps the patch's orientation, and the fold is not brought back.
+    assert!(p.triangles.iter().all(|&t| orientation(corners(&p.uv, t)) > 0));
 }
 
 #[test]
