@@ -303,9 +303,15 @@ pub struct DefragArgs {
     pub no_one_sided: bool,
     /// A merge holding the staying chart still, or rescued by the second solver, may spend at
     /// most this many times its seam's fair share of g; beyond, a held merge re-optimizes both
-    /// sides and a rescue is refused (0: no limit) [default: 2].
+    /// sides and a rescue is refused; any other merge over it waits for a second pass (see
+    /// --no-defer) (0: no limit) [default: 2].
     #[arg(long, alias = "one-sided-ration")]
     pub energy_ration: Option<f64>,
+    /// Run the queue once, in the paper's order: a merge over its energy ration is not deferred
+    /// to a second pass (by default the costly merges wait until the queue is empty, so the
+    /// budget g goes first to the merges that dissolve the most border for it).
+    #[arg(long)]
+    pub no_defer: bool,
     /// A refused merge whose seams are at least this share of the input's UV border is solved
     /// once more by the solver's rescue (`--solver arap+slim`; 0: every refused merge)
     /// [default: 0.002].

@@ -573,10 +573,17 @@ impl Engine<'_> {
         if self.over_budget(self.energy_num, out_num, in_num) {
             return Verdict::Reject(RejectReason::GlobalDistortion);
         }
-        if (self.hold.is_some() || rescued) && self.over_ration(g, out_num - in_num) {
+        if (self.hold.is_some() || rescued || self.deferring)
+            && self.over_ration(g, out_num - in_num)
+        {
             // Not booked: a held merge is tried again on both sides at once; a rescue leaves
-            // its first refusal standing.
-            return Verdict::Reject(RejectReason::GlobalDistortion);
+            // its first refusal standing; any other merge waits for the second pass.
+            let deferred = self.deferring && self.hold.is_none() && !rescued;
+            return Verdict::Reject(if deferred {
+                RejectReason::Deferred
+            } else {
+                RejectReason::GlobalDistortion
+            });
         }
         let local = if out_den > 0.0 { out_num / out_den } else { 0.0 };
         if local.is_nan() || local > self.opts.local_distortion {

@@ -55,6 +55,7 @@ impl Engine<'_> {
         deadline: Option<Instant>,
     ) -> StopReason {
         let mut queue = Queue::new();
+        self.deferring = self.opts.defer;
         self.fill_queue(scorer, &mut queue, scope);
         let mut watermark = queue.len();
         let border_stop = self.opts.uv_border_target * self.border_len_input;
@@ -63,6 +64,9 @@ impl Engine<'_> {
                 return stop;
             }
             let Some((_, Reverse(op), version)) = queue.pop() else {
+                if self.start_second_pass(scorer, &mut queue, scope) {
+                    continue;
+                }
                 return StopReason::QueueEmpty;
             };
             if !self.entry_live(op, version) {
@@ -90,6 +94,29 @@ impl Engine<'_> {
             }
         }
         self.report.timings.scoring_ms += ts.elapsed().as_secs_f64() * 1e3;
+    }
+
+    /// At an empty queue: ends the first pass, if the queue was deferring, by queueing the
+    /// deferred operations in `scope` again (see `MergeOptions::defer`). `false` when the merge
+    /// is over.
+    pub(super) fn start_second_pass(
+        &mut self,
+        scorer: &dyn MergeScorer,
+        queue: &mut Queue,
+        scope: Option<&[bool]>,
+    ) -> bool {
+        if !self.deferring {
+            return false;
+        }
+        self.deferring = false;
+        let ts = Instant::now();
+        for op in 0..self.ops.len() as u32 {
+            if self.ops[op as usize].state == OpState::Failed(super::RejectReason::Deferred) {
+                self.rescore(op, scorer, queue, scope);
+            }
+        }
+        self.report.timings.scoring_ms += ts.elapsed().as_secs_f64() * 1e3;
+        true
     }
 
     /// The stop criterion that holds before the next pop, if any.

@@ -82,6 +82,8 @@ struct Request {
     key: Key,
     charts: (ChartId, ChartId),
     at: usize,
+    /// Whether the master's queue was in its first pass (see `MergeOptions::defer`).
+    deferring: bool,
 }
 
 /// What the shadow sends back: a judgement, or word that a request was dropped unjudged because
@@ -170,6 +172,7 @@ impl Engine<'_> {
         deadline: Option<Instant>,
     ) -> StopReason {
         let mut queue = Queue::new();
+        self.deferring = self.opts.defer;
         self.fill_queue(scorer, &mut queue, None);
         let mut watermark = queue.len();
         let border_stop = self.opts.uv_border_target * self.border_len_input;
@@ -185,6 +188,11 @@ impl Engine<'_> {
                 break stop;
             }
             let Some((_, Reverse(op), version)) = queue.pop() else {
+                // Every request was for an operation queued before: none is judged under the
+                // wrong pass (the second pass queues new versions only).
+                if self.start_second_pass(scorer, &mut queue, None) {
+                    continue;
+                }
                 break StopReason::QueueEmpty;
             };
             if !self.entry_live(op, version) {
@@ -285,7 +293,8 @@ impl Engine<'_> {
             let (_, Reverse(op), version) = key;
             let at = s.commits.len();
             let entry = self.ops[op as usize].clone();
-            let request = Request { op, version, entry, key, charts: c, at };
+            let deferring = self.deferring;
+            let request = Request { op, version, entry, key, charts: c, at, deferring };
             if tx.send(ToShadow::Judge(Box::new(request))).is_err() {
                 s.to_shadow = None;
                 return;
@@ -446,7 +455,8 @@ fn shadow_loop(
             }
         }
         let Some(i) = (0..pending.len()).max_by_key(|&i| pending[i].key) else { continue };
-        let Request { op, version, entry, .. } = pending.swap_remove(i);
+        let Request { op, version, entry, deferring, .. } = pending.swap_remove(i);
+        shadow.deferring = deferring;
         let o = op as usize;
         if shadow.ops.len() <= o {
             shadow.ops.resize(o + 1, entry.clone());

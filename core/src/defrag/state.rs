@@ -118,6 +118,9 @@ pub(crate) struct Engine<'t> {
     pub global_checks: Vec<(f64, f64)>,
     /// The chart held still by the attempt in progress (see `MergeOptions::one_sided`).
     pub hold: Option<ChartId>,
+    /// Whether the queue is in its first pass, deferring the merges over their ration (see
+    /// `MergeOptions::defer`).
+    pub deferring: bool,
 }
 
 /// The state of an engine that a cluster's fork copies (everything but scratch and logs).
@@ -387,6 +390,7 @@ impl<'t> Engine<'t> {
             record_checks: false,
             global_checks: Vec::new(),
             hold: None,
+            deferring: false,
             t,
         }
     }

@@ -970,3 +970,26 @@ fn a_refused_layout_of_a_long_seam_goes_to_the_solvers_rescue() {
     assert_eq!((r.accepted, r.rescues_passed), (0, 0), "{r:?}");
     assert!(r.rescues >= 1 && r.rejected.global_distortion >= 1, "{r:?}");
 }
+
+#[test]
+fn a_merge_over_its_ration_waits_for_the_second_pass() {
+    // The right half is stretched along the seam, so the merge costs energy (the `Keep` solver
+    // leaves the fused layout as it is); g is huge, so only the ration can bind.
+    let stretched = |p: [f64; 3]| [100.0 + 4.0 * p[0], 30.0 + 4.8 * p[1]];
+    let m = two_halves(8, rigid(0.3, [60.0, 20.0], 4.0), stretched);
+    let opts = MergeOptions {
+        energy_ration: 1e-20,
+        global_distortion: 1e9,
+        local_distortion: 1e9,
+        ..MergeOptions::default()
+    };
+    // Deferred in the first pass, taken in the second.
+    let (_, r) = run(&m, &opts);
+    assert_eq!((r.accepted, r.rejected.deferred, r.charts_after), (1, 1, 1), "{r:?}");
+    // Without deferral the same merge is taken at once.
+    let (_, r) = run(&m, &MergeOptions { defer: false, ..opts.clone() });
+    assert_eq!((r.accepted, r.rejected.deferred, r.charts_after), (1, 0, 1), "{r:?}");
+    // Within its ration it is never deferred.
+    let (_, r) = run(&m, &MergeOptions { energy_ration: 1e20, ..opts });
+    assert_eq!((r.accepted, r.rejected.deferred), (1, 0), "{r:?}");
+}

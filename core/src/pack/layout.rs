@@ -541,9 +541,15 @@ pub fn pack_layout(
             .par_iter()
             .map(|&c| {
                 let c = c as usize;
-                separate(input, faces.of(c), verts.of(c), &vert_local, &frame_uv, |v| {
-                    !claim[v as usize][0].is_nan()
-                })
+                separate(
+                    input,
+                    faces.of(c),
+                    verts.of(c),
+                    &vert_local,
+                    &frame_uv,
+                    |v| !claim[v as usize][0].is_nan(),
+                    |f| face_preserved[f as usize],
+                )
             })
             .collect();
         for (&c, r) in packed.iter().zip(found) {
@@ -551,6 +557,19 @@ pub fn pack_layout(
             report.texel_clashes_left += r.left.len();
             clashing_pairs.extend_from_slice(&r.left);
             report.texel_clash_vertices_moved += r.moves.len();
+            report.texel_clash_vertices_freed += r.freed.len();
+            if !r.freed.is_empty() {
+                // A freed vertex is no longer held at its grid image, and its faces are resampled.
+                for &v in &r.freed {
+                    claim[v as usize] = [f64::NAN; 2];
+                }
+                for &f in faces.of(c as usize) {
+                    let corners = [0, 1, 2].map(|k| input.corner_vert[3 * f as usize + k]);
+                    if corners.iter().any(|v| r.freed.contains(v)) {
+                        face_preserved[f as usize] = false;
+                    }
+                }
+            }
             if r.moves.is_empty() {
                 continue;
             }

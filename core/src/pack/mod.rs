@@ -107,6 +107,9 @@ pub struct PackReport {
     pub texel_clashes: usize,
     pub texel_clashes_left: usize,
     pub texel_clash_vertices_moved: usize,
+    /// Fixed vertices freed for a clashing pair with no free corner (their faces lose grid
+    /// preservation).
+    pub texel_clash_vertices_freed: usize,
     /// Faces cut out of their charts (each packed as a chart of its own, and the atlas packed
     /// again) because the moves left them clashing.
     pub faces_detached: usize,

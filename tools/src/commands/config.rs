@@ -16,7 +16,7 @@ use super::UsageError;
 use crate::cli::{DefragArgs, parse_sheet_size};
 
 /// The top-level keys a config file may hold (besides the plugin tables).
-pub const TOP_LEVEL_KEYS: [&str; 23] = [
+pub const TOP_LEVEL_KEYS: [&str; 25] = [
     "matching-tolerance",
     "boundary-tolerance",
     "local-distortion",
@@ -34,6 +34,8 @@ pub const TOP_LEVEL_KEYS: [&str; 23] = [
     "no-solve-repair",
     "no-one-sided",
     "energy-ration",
+    "no-defer",
+    "rescue-share",
     "scorer",
     "solver",
     "packer",
@@ -221,6 +223,7 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
         solve_repair: !(args.no_solve_repair || file.flag("no-solve-repair")?),
         one_sided: !(args.no_one_sided || file.flag("no-one-sided")?),
         energy_ration: pick(args.energy_ration, "energy-ration", defaults.energy_ration)?,
+        defer: !(args.no_defer || file.flag("no-defer")?),
         rescue_share: pick(args.rescue_share, "rescue-share", defaults.rescue_share)?,
         speculate: !serial,
         cluster_faces: if serial {
