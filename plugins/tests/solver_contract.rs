@@ -72,24 +72,12 @@ fn stretched(rest: &[[f64; 2]], n: usize) -> Vec<[f64; 2]> {
         .collect()
 }
 
-/// The expected orientation of each triangle, as the solvers define it (target orientation times
-/// the patch's mirror state; zero-area targets: the patch's dominant orientation).
+/// The expected orientation of each triangle, as the solvers define it: the patch's orientation
+/// (the sign of its total current area), for every triangle, folded targets included.
 fn expected(p: &LocalProblem) -> Vec<i8> {
-    let (mut agreement, mut total) = (0.0, 0.0);
-    for (&t, &g) in p.triangles.iter().zip(&p.targets) {
-        let cur = tri(&p.uv, t);
-        total += signed_area2(cur);
-        agreement += f64::from(orientation(cur) * orientation(g)) * signed_area2(g).abs();
-    }
-    let mirror = if agreement < 0.0 { -1 } else { 1 };
+    let total: f64 = p.triangles.iter().map(|&t| signed_area2(tri(&p.uv, t))).sum();
     let patch = if total < 0.0 { -1 } else { 1 };
-    p.targets
-        .iter()
-        .map(|&g| match orientation(g) {
-            0 => patch,
-            o => mirror * o,
-        })
-        .collect()
+    vec![patch; p.triangles.len()]
 }
 
 /// Solves a copy of `before` and checks the contract. Returns the solved problem and the report.

@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use super::ops::{EngineOp, OpGeometry, OpState};
 use super::state::{Engine, MergedLayout, OrdF64};
-use super::{DefragError, MergeOptions, MergeReport, StopReason};
+use super::{DefragError, MergeOptions, MergeReport, RejectReason, StopReason};
 use crate::plugin::{LocalSolver, MergeScorer, Score, Veto};
 use crate::topology::{ChartId, OpKind, Topology};
 
@@ -111,7 +111,7 @@ impl Engine<'_> {
         self.deferring = false;
         let ts = Instant::now();
         for op in 0..self.ops.len() as u32 {
-            if self.ops[op as usize].state == OpState::Failed(super::RejectReason::Deferred) {
+            if self.ops[op as usize].state == OpState::Failed(RejectReason::Deferred) {
                 self.rescore(op, scorer, queue, scope);
             }
         }

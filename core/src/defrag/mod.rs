@@ -433,6 +433,7 @@ impl MergeReport {
         r.fold += q.fold;
         r.overlap += q.overlap;
         r.too_large += q.too_large;
+        r.deferred += q.deferred;
         self.vetoes.zero_area += o.vetoes.zero_area;
         self.vetoes.matching += o.vetoes.matching;
         self.vetoes.boundary += o.vetoes.boundary;

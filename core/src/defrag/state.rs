@@ -121,6 +121,10 @@ pub(crate) struct Engine<'t> {
     /// Whether the queue is in its first pass, deferring the merges over their ration (see
     /// `MergeOptions::defer`).
     pub deferring: bool,
+    /// The first solve of each deferred operation's attempt, by operation (see `SolveMemo`), and
+    /// the one of the attempt in progress until its outcome is known.
+    pub solve_memo: std::collections::HashMap<u32, super::attempt::SolveMemo>,
+    pub memo_pending: Option<super::attempt::SolveMemo>,
 }
 
 /// The state of an engine that a cluster's fork copies (everything but scratch and logs).
@@ -391,6 +395,8 @@ impl<'t> Engine<'t> {
             global_checks: Vec::new(),
             hold: None,
             deferring: false,
+            solve_memo: Default::default(),
+            memo_pending: None,
             t,
         }
     }
