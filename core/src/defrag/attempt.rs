@@ -40,6 +40,7 @@ fn folds(before: f64, after: f64) -> bool {
 
 /// A solve kept for later (see `Engine::first_solve`): the problem as the solver got it, the
 /// layout it returned and its report.
+#[derive(Default)]
 pub(crate) struct SolveMemo {
     start: LocalProblem,
     solved: Vec<[f64; 2]>,
@@ -163,9 +164,8 @@ impl Engine<'_> {
             self.report.timings.area_ms += ms(t1);
 
             let result = self.check_and_solve(op, &g, solver);
-            let memo = self.memo_pending.take();
-            if let (Err(RejectReason::Deferred), Some(m)) = (&result, memo) {
-                self.solve_memo.insert(op, m);
+            if std::mem::take(&mut self.memo_filled) && result == Err(RejectReason::Deferred) {
+                self.solve_memo.insert(op, std::mem::take(&mut self.memo_scratch));
             }
             if result.is_ok() || sides.len() == 1 {
                 if result.is_ok() && self.hold.is_some() {
@@ -547,11 +547,15 @@ impl Engine<'_> {
             // the judgements ahead, and the report is the same for every thread count.
             return Ok(m.report);
         }
-        let start = self.deferring.then(|| self.problem.clone());
+        // The scratch keeps its buffers from one attempt to the next; only a deferral takes them.
+        if self.deferring {
+            self.memo_scratch.start.clone_from(&self.problem);
+        }
         let solved = solver.solve(&mut self.problem);
-        if let (Some(start), Ok(report)) = (start, &solved) {
-            let solved = self.problem.uv.clone();
-            self.memo_pending = Some(SolveMemo { start, solved, report: *report });
+        if let (true, Ok(report)) = (self.deferring, &solved) {
+            self.memo_scratch.solved.clone_from(&self.problem.uv);
+            self.memo_scratch.report = *report;
+            self.memo_filled = true;
         }
         solved
     }

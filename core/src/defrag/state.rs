@@ -122,9 +122,10 @@ pub(crate) struct Engine<'t> {
     /// `MergeOptions::defer`).
     pub deferring: bool,
     /// The first solve of each deferred operation's attempt, by operation (see `SolveMemo`), and
-    /// the one of the attempt in progress until its outcome is known.
+    /// the one of the attempt in progress (valid while `memo_filled`) until its outcome is known.
     pub solve_memo: std::collections::HashMap<u32, super::attempt::SolveMemo>,
-    pub memo_pending: Option<super::attempt::SolveMemo>,
+    pub memo_scratch: super::attempt::SolveMemo,
+    pub memo_filled: bool,
 }
 
 /// The state of an engine that a cluster's fork copies (everything but scratch and logs).
@@ -396,7 +397,8 @@ impl<'t> Engine<'t> {
             hold: None,
             deferring: false,
             solve_memo: Default::default(),
-            memo_pending: None,
+            memo_scratch: Default::default(),
+            memo_filled: false,
             t,
         }
     }

@@ -137,25 +137,25 @@ fn covers(t: &Tri2, s: f64, p: [f64; 2], margin: f64) -> bool {
 /// a preserved face with one may then share a texel with a neighbour it did not share it with.
 fn near_an_edge(t: &Tri2) -> bool {
     let b = tri_bbox(t);
-    let (i0, i1) =
-        ((b[0] - OUT_MARGIN - 0.5).ceil() as i64, (b[2] + OUT_MARGIN - 0.5).floor() as i64);
-    let (j0, j1) =
-        ((b[1] - OUT_MARGIN - 0.5).ceil() as i64, (b[3] + OUT_MARGIN - 0.5).floor() as i64);
-    if (i1 - i0 + 1).max(0) * (j1 - j0 + 1).max(0) > MAX_LATTICE_POINTS {
-        return true;
-    }
-    (j0..=j1).any(|j| {
-        (i0..=i1).any(|i| {
-            let p = [i as f64 + 0.5, j as f64 + 0.5];
-            (0..3).any(|k| {
-                let (a, c) = (t[k], t[(k + 1) % 3]);
-                let (ex, ey) = (c[0] - a[0], c[1] - a[1]);
-                let o = ex * (p[1] - a[1]) - ey * (p[0] - a[0]);
-                // Either side of the edge line, within the wider margin (conservative).
-                o * o <= OUT_MARGIN * OUT_MARGIN * (ex * ex + ey * ey)
-            })
+    let (lo, hi) = ([b[0] - OUT_MARGIN, b[1] - OUT_MARGIN], [b[2] + OUT_MARGIN, b[3] + OUT_MARGIN]);
+    any_centre(lo, hi, |p| {
+        (0..3).any(|k| {
+            let (a, c) = (t[k], t[(k + 1) % 3]);
+            let (ex, ey) = (c[0] - a[0], c[1] - a[1]);
+            let o = ex * (p[1] - a[1]) - ey * (p[0] - a[0]);
+            // Either side of the edge line, within the wider margin (conservative).
+            o * o <= OUT_MARGIN * OUT_MARGIN * (ex * ex + ey * ey)
         })
     })
+}
+
+/// Whether `test` holds for some texel centre in the box `lo..hi`; `true` as well when the box
+/// holds more than [`MAX_LATTICE_POINTS`] centres (the callers' answers are then conservative).
+fn any_centre(lo: [f64; 2], hi: [f64; 2], test: impl Fn([f64; 2]) -> bool) -> bool {
+    let (i0, i1) = ((lo[0] - 0.5).ceil() as i64, (hi[0] - 0.5).floor() as i64);
+    let (j0, j1) = ((lo[1] - 0.5).ceil() as i64, (hi[1] - 0.5).floor() as i64);
+    (i1 - i0 + 1).max(0) * (j1 - j0 + 1).max(0) > MAX_LATTICE_POINTS
+        || (j0..=j1).any(|j| (i0..=i1).any(|i| test([i as f64 + 0.5, j as f64 + 0.5])))
 }
 
 /// Whether the interiors of `a` and `b` overlap and some texel centre is covered by both with
@@ -169,17 +169,9 @@ fn share_texel_centre(a: &Tri2, b: &Tri2, margin: f64) -> bool {
         return false;
     }
     let (sa, sb) = (signed_area2(*a).signum(), signed_area2(*b).signum());
-    let (i0, i1) = ((lo[0] - 0.5).ceil() as i64, (hi[0] - 0.5).floor() as i64);
-    let (j0, j1) = ((lo[1] - 0.5).ceil() as i64, (hi[1] - 0.5).floor() as i64);
     // The cheap lattice scan first: most neighbours share no texel centre at all, and the exact
     // overlap test then tells a real overlap from two faces meeting along an edge.
-    let shared = (i1 - i0 + 1).max(0) * (j1 - j0 + 1).max(0) > MAX_LATTICE_POINTS
-        || (j0..=j1).any(|j| {
-            (i0..=i1).any(|i| {
-                let p = [i as f64 + 0.5, j as f64 + 0.5];
-                covers(a, sa, p, margin) && covers(b, sb, p, margin)
-            })
-        });
+    let shared = any_centre(lo, hi, |p| covers(a, sa, p, margin) && covers(b, sb, p, margin));
     shared && triangles_overlap(*a, *b)
 }
 
