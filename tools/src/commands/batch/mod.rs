@@ -30,6 +30,14 @@ use shard::Shard;
 const VERSION: &str = env!("CARGO_PKG_VERSION");
 const COMMIT: &str = env!("SCANATLAS_COMMIT");
 
+/// A model that needs running, locked, with its process arguments.
+struct Ready {
+    index: usize,
+    lock: std::fs::File,
+    args: Vec<String>,
+    memory_estimate: u64,
+}
+
 /// What the whole run shares.
 struct Batch<'a> {
     out_dir: PathBuf,
@@ -117,6 +125,7 @@ impl Batch<'_> {
     fn run_all(&mut self, memory_budget: u64) -> Result<()> {
         let mut queue: VecDeque<usize> = (0..self.jobs.len()).collect();
         let mut running: Vec<Running> = Vec::new();
+        let mut pending: Option<Ready> = None;
         let mut stopping = false;
         loop {
             if child::stop_signal().is_some() && !stopping {
@@ -124,18 +133,27 @@ impl Batch<'_> {
                 running.iter_mut().for_each(Running::stop);
             }
             while !stopping && running.len() < self.args.jobs {
-                let Some(&next) = queue.front() else { break };
+                let ready = match pending.take() {
+                    Some(p) => p,
+                    None => {
+                        let Some(next) = queue.pop_front() else { break };
+                        match self.prepare(next)? {
+                            Some(p) => p,
+                            None => continue,
+                        }
+                    }
+                };
                 let in_use: u64 = running.iter().map(|r| r.memory_estimate).sum();
-                let need = self.memory_estimate(next);
-                if !running.is_empty() && in_use.saturating_add(need) > memory_budget {
+                if !running.is_empty()
+                    && in_use.saturating_add(ready.memory_estimate) > memory_budget
+                {
+                    // It waits, still locked, until enough running models have finished.
+                    pending = Some(ready);
                     break;
                 }
-                queue.pop_front();
-                if let Some(r) = self.start(next, need)? {
-                    running.push(r);
-                }
+                running.push(self.spawn(ready)?);
             }
-            if running.is_empty() && (queue.is_empty() || stopping) {
+            if running.is_empty() && ((queue.is_empty() && pending.is_none()) || stopping) {
                 return Ok(());
             }
             let mut i = 0;
@@ -167,8 +185,8 @@ impl Batch<'_> {
         size.saturating_mul(4)
     }
 
-    /// Locks the model and either logs it `busy` or `skipped`, or starts its process.
-    fn start(&mut self, index: usize, memory_estimate: u64) -> Result<Option<Running>> {
+    /// Locks the model and either logs it `busy` or `skipped`, or returns it ready to run.
+    fn prepare(&mut self, index: usize) -> Result<Option<Ready>> {
         let job = self.jobs[index].clone();
         let dir = resume::model_dir(&self.out_dir, &job.name);
         let planned = plan::plan(&job, &self.cli_options, &dir, self.threads_per_model)?;
@@ -190,23 +208,30 @@ impl Batch<'_> {
             self.log(index, Status::Skipped, started, clock.elapsed(), None, record.figures)?;
             return Ok(None);
         }
+        let memory_estimate = self.memory_estimate(index);
+        Ok(Some(Ready { index, lock, args: planned.args, memory_estimate }))
+    }
+
+    /// Starts the process of a prepared model, whose lock it keeps until the model is logged.
+    fn spawn(&mut self, ready: Ready) -> Result<Running> {
+        let job = &self.jobs[ready.index];
+        let dir = resume::model_dir(&self.out_dir, &job.name);
         resume::forget(&dir)?;
-        let log_path = dir.join(resume::RUN_LOG);
-        let mut running = child::spawn(
+        resume::clear_leftovers(&dir)?;
+        let running = child::spawn(
             &self.exe,
-            &planned.args,
-            &log_path,
+            &ready.args,
+            &dir.join(resume::RUN_LOG),
             self.timeout,
-            index,
+            ready.index,
             self.threads_per_model,
-            memory_estimate,
+            ready.memory_estimate,
         )?;
-        running.start_time = started;
-        self.locks.insert(index, lock);
         if !self.quiet {
             eprintln!("batch: started {} ({})", job.name, job.primary_input().display());
         }
-        Ok(Some(running))
+        self.locks.insert(ready.index, ready.lock);
+        Ok(running)
     }
 
     /// Logs a finished process; after a success, records it so that a rerun can skip it.
@@ -254,6 +279,7 @@ impl Batch<'_> {
         entry.threads = Some(r.threads);
         entry.warnings = Some(warnings);
         self.write(&entry)?;
+        resume::clear_leftovers(&dir)?;
         self.locks.remove(&r.job);
         Ok(())
     }
@@ -307,7 +333,9 @@ impl Batch<'_> {
     }
 
     fn write(&mut self, entry: &Entry) -> Result<()> {
-        log::append(&self.out_dir, entry)?;
+        // Outcomes of runs are synced; a lost `skipped` or `busy` line costs nothing.
+        let sync = !matches!(entry.status, Status::Skipped | Status::Busy);
+        log::append(&self.out_dir, entry, sync)?;
         *self.counts.entry(entry.status).or_default() += 1;
         if !self.quiet && !matches!(entry.status, Status::Skipped) {
             let error = entry.error.as_deref().map(|e| format!(": {e}")).unwrap_or_default();
