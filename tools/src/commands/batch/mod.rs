@@ -35,7 +35,15 @@ struct Ready {
     index: usize,
     lock: std::fs::File,
     args: Vec<String>,
+    identity: Identity,
     memory_estimate: u64,
+}
+
+/// What the record of a success says about the model's inputs and options.
+struct Identity {
+    input_hash: String,
+    inputs: Vec<inputs::Stamp>,
+    options_hash: String,
 }
 
 /// What the whole run shares.
@@ -56,6 +64,8 @@ struct Batch<'a> {
     /// The lock files of the models whose processes run, by job index: each lock is held for
     /// as long as its model's process runs and released after the model is logged.
     locks: HashMap<usize, std::fs::File>,
+    /// What the record of each running model will say about its inputs and options.
+    identities: HashMap<usize, Identity>,
     args: &'a BatchArgs,
 }
 
@@ -101,6 +111,7 @@ pub fn run(args: &BatchArgs, global: &GlobalArgs) -> Result<()> {
         past_peaks,
         counts: HashMap::new(),
         locks: HashMap::new(),
+        identities: HashMap::new(),
         args,
     };
     if !batch.quiet {
@@ -137,9 +148,13 @@ impl Batch<'_> {
                     Some(p) => p,
                     None => {
                         let Some(next) = queue.pop_front() else { break };
-                        match self.prepare(next)? {
-                            Some(p) => p,
-                            None => continue,
+                        match self.prepare(next) {
+                            Ok(Some(p)) => p,
+                            Ok(None) => continue,
+                            Err(e) => {
+                                self.failed_to_start(next, &e)?;
+                                continue;
+                            }
                         }
                     }
                 };
@@ -151,7 +166,11 @@ impl Batch<'_> {
                     pending = Some(ready);
                     break;
                 }
-                running.push(self.spawn(ready)?);
+                let index = ready.index;
+                match self.spawn(ready) {
+                    Ok(r) => running.push(r),
+                    Err(e) => self.failed_to_start(index, &e)?,
+                }
             }
             if running.is_empty() && ((queue.is_empty() && pending.is_none()) || stopping) {
                 return Ok(());
@@ -168,6 +187,14 @@ impl Batch<'_> {
             }
             std::thread::sleep(Duration::from_millis(20));
         }
+    }
+
+    /// Logs a model that could not be started (its folder, its inputs unreadable) as failed.
+    fn failed_to_start(&mut self, index: usize, error: &anyhow::Error) -> Result<()> {
+        self.locks.remove(&index);
+        let now = SystemTime::now();
+        let error = Some(format!("{error:#}"));
+        self.log(index, Status::Failed, now, Duration::ZERO, error, Figures::default())
     }
 
     /// Memory a model is expected to need: its last attempt's peak, else four times the size of
@@ -208,8 +235,20 @@ impl Batch<'_> {
             self.log(index, Status::Skipped, started, clock.elapsed(), None, record.figures)?;
             return Ok(None);
         }
+        // The inputs are read before the run, so that the record vouches for what the run read
+        // (a file changed meanwhile has a newer stamp, and the next run compares content).
+        let files = inputs::files(&job);
+        let stamps = inputs::stamps(&files);
+        let input_hash = inputs::content_hash(&files)
+            .with_context(|| format!("reading the inputs of {}", job.name))?;
         let memory_estimate = self.memory_estimate(index);
-        Ok(Some(Ready { index, lock, args: planned.args, memory_estimate }))
+        Ok(Some(Ready {
+            index,
+            lock,
+            args: planned.args,
+            identity: Identity { input_hash, inputs: stamps, options_hash: planned.options_hash },
+            memory_estimate,
+        }))
     }
 
     /// Starts the process of a prepared model, whose lock it keeps until the model is logged.
@@ -231,6 +270,7 @@ impl Batch<'_> {
             eprintln!("batch: started {} ({})", job.name, job.primary_input().display());
         }
         self.locks.insert(ready.index, ready.lock);
+        self.identities.insert(ready.index, ready.identity);
         Ok(running)
     }
 
@@ -254,32 +294,34 @@ impl Batch<'_> {
             };
             (Status::Failed, Some(message.map_or(how.clone(), |m| format!("{how}: {m}"))))
         };
-        let figures = if success {
-            summary::figures_of_report(&dir.join(plan::REPORT_FILE))
-        } else {
-            Figures::default()
+        let mut figures = Figures::default();
+        let (status, error) = match (success, self.identities.remove(&r.job)) {
+            (true, Some(identity)) => {
+                figures = summary::figures_of_report(&dir.join(plan::REPORT_FILE));
+                let record = resume::Record {
+                    version: VERSION.into(),
+                    commit: COMMIT.into(),
+                    options_hash: identity.options_hash,
+                    input_hash: identity.input_hash,
+                    inputs: identity.inputs,
+                    outputs: resume::output_files(&dir).unwrap_or_default(),
+                    figures: figures.clone(),
+                };
+                match resume::write_record(&dir, &record) {
+                    Ok(()) => (status, error),
+                    Err(e) => (Status::Failed, Some(format!("{e:#}"))),
+                }
+            }
+            _ => (status, error),
         };
-        if success {
-            let files = inputs::files(&job);
-            let planned = plan::plan(&job, &self.cli_options, &dir, r.threads)?;
-            let record = resume::Record {
-                version: VERSION.into(),
-                commit: COMMIT.into(),
-                options_hash: planned.options_hash,
-                input_hash: inputs::content_hash(&files)
-                    .with_context(|| format!("hashing the inputs of {}", job.name))?,
-                inputs: inputs::stamps(&files),
-                outputs: resume::output_files(&dir)?,
-                figures: figures.clone(),
-            };
-            resume::write_record(&dir, &record)?;
-        }
         let mut entry = self.entry(r.job, status, r.start_time, done.wall, error, figures);
         entry.peak_rss_bytes = Some(done.peak_rss_bytes);
         entry.threads = Some(r.threads);
         entry.warnings = Some(warnings);
         self.write(&entry)?;
-        resume::clear_leftovers(&dir)?;
+        if let Err(e) = resume::clear_leftovers(&dir) {
+            tracing::warn!("{}: {e:#}", job.name);
+        }
         self.locks.remove(&r.job);
         Ok(())
     }
