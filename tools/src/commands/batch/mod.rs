@@ -285,7 +285,15 @@ impl Batch<'_> {
         } else if done.timed_out {
             let limit = self.timeout.map_or(0.0, |t| t.as_secs_f64());
             (Status::Failed, Some(format!("stopped at --model-timeout {limit} s")))
-        } else if done.stopped || matches!(done.exit, Exit::Code(130 | 143)) {
+        } else if done.stopped
+            || child::stop_signal().is_some()
+            || matches!(
+                done.exit,
+                Exit::Code(130 | 143) | Exit::Signal(libc::SIGTERM | libc::SIGINT)
+            )
+        {
+            // Slurm and Kubernetes signal every process of the job, so a model may be stopped
+            // before the batch has seen its own signal.
             (Status::Interrupted, Some("stopped by a signal; a rerun redoes it".into()))
         } else {
             let how = match done.exit {
