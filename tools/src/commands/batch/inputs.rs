@@ -125,8 +125,8 @@ fn lines_with_keyword(path: &Path, keyword: &str, limit: usize) -> Vec<String> {
     out
 }
 
-/// The texture files of an MTL: the file name at the end of every `map_*`, `bump`, `disp`
-/// and `norm` line (after any `-option value` pairs).
+/// The texture files of an MTL: the file name of every `map_*`, `bump`, `disp`, `norm`,
+/// `decal` and `refl` statement.
 fn mtl_maps(mtl: &Path) -> Vec<String> {
     let Ok(text) = std::fs::read_to_string(mtl) else { return Vec::new() };
     let mut out = Vec::new();
@@ -139,15 +139,33 @@ fn mtl_maps(mtl: &Path) -> Vec<String> {
         {
             continue;
         }
-        let rest = rest.trim();
-        // The name is what follows the options; a name with spaces is kept whole.
-        let name = rest.rsplit_once(char::is_whitespace).map_or(rest, |(_, last)| last);
-        out.push(name.to_string());
-        if name != rest {
-            out.push(rest.to_string());
+        let name = map_file_name(rest);
+        if !name.is_empty() {
+            out.push(name);
         }
     }
     out
+}
+
+/// The file name of a texture map statement: what follows its `-option value…` pairs (option
+/// values are numbers or `on`/`off`, or one word for `-imfchan` and `-type`), spaces kept.
+fn map_file_name(args: &str) -> String {
+    let tokens: Vec<&str> = args.split_whitespace().collect();
+    let mut i = 0;
+    while i < tokens.len() && tokens[i].starts_with('-') && tokens[i].len() > 1 {
+        let option = tokens[i];
+        i += 1;
+        if matches!(option, "-imfchan" | "-type") {
+            i += 1;
+            continue;
+        }
+        while i + 1 < tokens.len()
+            && (tokens[i].parse::<f64>().is_ok() || matches!(tokens[i], "on" | "off"))
+        {
+            i += 1;
+        }
+    }
+    tokens.get(i..).map(|t| t.join(" ")).unwrap_or_default()
 }
 
 /// The JSON chunk of a GLB.
