@@ -7,7 +7,7 @@
 #SBATCH --time=00:10:00
 #SBATCH --output=scanatlas-summary-%j.out
 set -uo pipefail
-: "${SCANATLAS_OUT:?set SCANATLAS_OUT to the batch's output folder}"
+: "${SCANATLAS_OUT:?set SCANATLAS_OUT to the output folder of the batch}"
 scanatlas="${SCANATLAS:-scanatlas}"
 "$scanatlas" batch-summary --json "$SCANATLAS_OUT" >"$SCANATLAS_OUT/summary.json"
 exec "$scanatlas" batch-summary "$SCANATLAS_OUT"
