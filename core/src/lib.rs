@@ -6,12 +6,14 @@
 
 pub mod atomic;
 pub mod build;
+pub mod cancel;
 pub mod defrag;
 pub mod geometry;
 pub mod index;
 pub mod io;
 pub mod metrics;
 pub mod model;
+pub mod output_set;
 pub mod pack;
 pub mod pipeline;
 pub mod plugin;

@@ -25,9 +25,10 @@ pub struct GlobalArgs {
     /// More log output on stderr (-v info, -vv debug, -vvv trace).
     #[arg(short, long, global = true, action = clap::ArgAction::Count)]
     pub verbose: u8,
-    /// Worker threads (default: all cores). Results never depend on it.
-    #[arg(long, global = true, value_name = "N")]
-    pub threads: Option<usize>,
+    /// Worker threads, 1 to 1024 (default: all cores). Results never depend on it.
+    #[arg(long, global = true, value_name = "N",
+          value_parser = clap::value_parser!(u16).range(1..=MAX_THREADS as i64))]
+    pub threads: Option<u16>,
 }
 
 #[derive(Debug, Subcommand)]
@@ -68,8 +69,9 @@ pub struct BuildArgs {
     /// Output model (.obj, .gltf, .glb, .ply); sheets are written beside it.
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Output sheet side limit in pixels (default: the largest photo's side).
-    #[arg(long, value_name = "S")]
+    /// Output sheet side limit in pixels, at most 65536 (default: the largest photo's side).
+    #[arg(long, value_name = "S",
+          value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_SHEET_SIDE)))]
     pub max_sheet_size: Option<u32>,
     /// Packer plugin (`rows`, the paper's; `horizon`; `skyline`).
     #[arg(long, default_value = "rows")]
@@ -330,10 +332,12 @@ pub struct DefragArgs {
     /// Packer plugin (`horizon`, `skyline`) [default: horizon].
     #[arg(long)]
     pub packer: Option<String>,
-    /// Free texels around every chart (two charts end up at least twice this apart) [default: 4].
-    #[arg(long)]
+    /// Free texels around every chart (two charts end up at least twice this apart), at most
+    /// 4096 [default: 4].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=4096))]
     pub padding: Option<u32>,
-    /// Output sheet size limit, `W` or `WxH` (default: the largest input sheet).
+    /// Output sheet size limit, `W` or `WxH`, each side at most 65536 (default: the largest input
+    /// sheet).
     #[arg(long, value_name = "W[xH]", value_parser = parse_sheet_size)]
     pub max_sheet_size: Option<(u32, u32)>,
     /// Texture format of the written sheets (default: the input's).
@@ -357,11 +361,18 @@ pub struct PluginsArgs {
     pub json: bool,
 }
 
-/// Parses `W` or `WxH` (positive integers) as a sheet size.
+/// The most worker threads `--threads` accepts: far more than any machine this runs on, and
+/// few enough that a typo does not spend seconds spawning threads.
+pub const MAX_THREADS: u16 = 1024;
+
+/// The largest output sheet side (see `pipeline::defrag::MAX_SHEET_SIDE`).
+pub use scanatlas_core::pipeline::defrag::MAX_SHEET_SIDE;
+
+/// Parses `W` or `WxH` (integers from 1 to [`MAX_SHEET_SIDE`]) as a sheet size.
 pub fn parse_sheet_size(s: &str) -> Result<(u32, u32), String> {
     let parse = |t: &str| match t.trim().parse::<u32>() {
-        Ok(0) | Err(_) => Err(format!("expected W or WxH with positive integers, got {s:?}")),
-        Ok(n) => Ok(n),
+        Ok(n) if (1..=MAX_SHEET_SIDE).contains(&n) => Ok(n),
+        _ => Err(format!("expected W or WxH with integers from 1 to {MAX_SHEET_SIDE}, got {s:?}")),
     };
     match s.split_once(['x', 'X']) {
         Some((w, h)) => Ok((parse(w)?, parse(h)?)),

@@ -23,6 +23,15 @@ fn assert_clean_failure(out: &Output, needle: &str) {
     assert!(stderr.contains(needle), "error does not mention {needle:?}: {stderr}");
 }
 
+/// Asserts a refusal as bad usage: exit status 2, an error line naming `needle`, no panic.
+#[track_caller]
+fn assert_usage_failure(out: &Output, needle: &str) {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "panic on bad input: {stderr}");
+    assert!(stderr.contains(needle), "error does not mention {needle:?}: {stderr}");
+}
+
 fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, bytes).unwrap();
@@ -150,7 +159,7 @@ fn convert_refuses_to_overwrite_its_input() {
     write(d, "t.png", &tiny_png());
     write(d, "q.obj", QUAD_OBJ.as_bytes());
     let out = scanatlas(&["convert", "q.obj", "-o", "q.obj"], d);
-    assert_clean_failure(&out, "q.obj");
+    assert_usage_failure(&out, "q.obj");
     assert_eq!(std::fs::read(d.join("q.obj")).unwrap(), QUAD_OBJ.as_bytes());
 }
 
@@ -289,13 +298,13 @@ fn defrag_refuses_to_overwrite_its_input() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let before = std::fs::read(d.join("s/scan.obj")).unwrap();
     let out = scanatlas(&["defrag", "s/scan.obj", "-o", "s/scan.obj", "-q"], d);
-    assert_clean_failure(&out, "is the input");
+    assert_usage_failure(&out, "is the input");
     let out = scanatlas(&["defrag", "s/scan.obj", "-o", "s/./scan.obj", "-q"], d);
-    assert_clean_failure(&out, "is the input");
+    assert_usage_failure(&out, "is the input");
     // An output whose sheet `sheet_0.png` would be the input's texture is refused too.
     let tex = std::fs::read(d.join("s/sheet_0.png")).unwrap();
     let out = scanatlas(&["defrag", "s/scan.obj", "-o", "s/sheet.obj", "-q"], d);
-    assert_clean_failure(&out, "sheet_0.png");
+    assert_usage_failure(&out, "sheet_0.png");
     assert_eq!(std::fs::read(d.join("s/sheet_0.png")).unwrap(), tex);
     assert_eq!(std::fs::read(d.join("s/scan.obj")).unwrap(), before);
 }

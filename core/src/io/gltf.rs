@@ -78,6 +78,25 @@ pub struct GltfScene {
     pub nodes: Vec<GltfNode>,
 }
 
+/// The files a glTF document refers to by URI (buffers and images, data URIs aside), resolved
+/// against its folder.
+pub fn external_files(scene: &GltfScene) -> Vec<std::path::PathBuf> {
+    let dir = source::base_dir(&scene.source);
+    let mut out = vec![scene.source.clone()];
+    for list in ["buffers", "images"] {
+        let Some(items) = scene.document.get(list).and_then(|v| v.as_array()) else { continue };
+        for item in items {
+            let Some(u) = item.get("uri").and_then(|u| u.as_str()) else { continue };
+            if uri::parse_data_uri(u).is_none()
+                && let Ok(rel) = uri::percent_decode(u)
+            {
+                out.push(dir.join(rel));
+            }
+        }
+    }
+    out
+}
+
 /// Reads a .gltf or .glb file.
 pub fn read(path: &Path) -> Result<Model, IoError> {
     reader::read(path)

@@ -61,6 +61,59 @@ impl IoError {
 pub struct WriteOptions {
     /// Paths that must never be overwritten (the inputs of the run).
     pub protect: Vec<PathBuf>,
+    /// Set when the model is written into a staging folder that will be moved into its final
+    /// folder (see `output_set`): file references are then written as seen from the final folder.
+    pub relocation: Option<Relocation>,
+}
+
+/// A staging folder (`from`) whose files will end up in another folder (`to`).
+#[derive(Clone, Debug)]
+pub struct Relocation {
+    pub from: PathBuf,
+    pub to: PathBuf,
+}
+
+impl WriteOptions {
+    /// Where `path` will be once the output set is in place.
+    pub(crate) fn final_path(&self, path: &Path) -> PathBuf {
+        match &self.relocation {
+            Some(r) => match path.strip_prefix(&r.from) {
+                Ok(rest) if rest.as_os_str().is_empty() => r.to.clone(),
+                Ok(rest) => r.to.join(rest),
+                Err(_) => path.to_path_buf(),
+            },
+            None => path.to_path_buf(),
+        }
+    }
+
+    /// How a model written in folder `dir` names the file `target` (see
+    /// [`paths::texture_reference`]), both taken at their final places.
+    pub(crate) fn reference(&self, target: &Path, dir: &Path) -> String {
+        paths::texture_reference(&self.final_path(target), &self.final_path(dir))
+    }
+}
+
+/// Every file a model read from disk was made of, besides the model file itself: its material
+/// libraries, texture files (also maps other than the colour one) and glTF buffers and images.
+/// A run must never overwrite any of them.
+pub fn referenced_files(model: &Model) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for sheet in &model.sheets {
+        if let crate::model::ImageSource::File(p) = &sheet.image {
+            out.push(p.clone());
+        }
+    }
+    match &model.origin {
+        crate::model::Origin::Obj(extras) => {
+            out.extend(extras.libraries.iter().cloned());
+            for m in &model.materials {
+                out.extend(m.extra.iter().filter_map(|l| obj::map_file(l)));
+            }
+        }
+        crate::model::Origin::Gltf(scene) => out.extend(gltf::external_files(scene)),
+        _ => {}
+    }
+    out
 }
 
 /// The format of a file to read: by magic bytes first (GLB, PLY), then by extension.

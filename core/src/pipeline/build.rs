@@ -686,7 +686,7 @@ pub fn build(
         &packed.sheet_sizes,
         &sheet_paths,
     );
-    crate::io::write_model(&out_model, output, &WriteOptions { protect })?;
+    crate::io::write_model(&out_model, output, &WriteOptions { protect, ..Default::default() })?;
     times.write_ms = ms(t);
 
     let eff = efficiencies(

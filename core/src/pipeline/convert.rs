@@ -7,7 +7,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::PipelineError;
-use crate::io::WriteOptions;
+use super::context::{RunContext, RunPaths, check_paths, tile_bytes};
 use crate::model::ImageSource;
 use crate::texture::encode::{EncodeOptions, write_image};
 use crate::texture::{ImageFormat, TileStore, decode};
@@ -58,53 +58,51 @@ pub(super) fn write_sheets(
     Ok(paths)
 }
 
-/// Converts `input` to `output`; never overwrites the input or its textures.
+/// Converts `input` to `output`; never overwrites the input or any file it refers to. The paths
+/// are checked before the model is read, and the output set is committed as a whole (see
+/// [`RunContext`]).
 pub fn convert(
     input: &Path,
     output: &Path,
     opts: &ConvertOptions,
 ) -> Result<ConvertReport, PipelineError> {
+    let inputs = [input.to_path_buf()];
+    let paths =
+        RunPaths { inputs: &inputs, output, work_dir: opts.work_dir.as_deref(), report: None };
+    check_paths(&paths)?;
     let t0 = Instant::now();
     let mut model = super::load_model(input)?;
     let read_seconds = t0.elapsed().as_secs_f64();
-
-    let out_dir = match output.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    super::create_dir(&out_dir)?;
-    let work_dir = opts.work_dir.clone().unwrap_or_else(|| out_dir.clone());
-    super::create_dir(&work_dir)?;
-
-    let mut protect = vec![input.to_path_buf()];
-    protect.extend(model.sheets.iter().filter_map(|s| match &s.image {
-        ImageSource::File(p) => Some(p.clone()),
-        ImageSource::Embedded { .. } => None,
-    }));
+    let ctx = RunContext::open(&paths, Some(&model))?;
+    let tiles = model.sheets.iter().filter_map(|s| s.size).map(|(w, h)| tile_bytes(w, h, 4)).max();
+    ctx.check_space(tiles.unwrap_or(0), input_bytes(ctx.protected()))?;
 
     let t1 = Instant::now();
+    let staged = ctx.staged_output();
     let mut written = Vec::with_capacity(model.sheets.len());
     for (k, sheet) in model.sheets.iter_mut().enumerate() {
-        let store = decode::decode_to_store(&sheet.image, &work_dir)?;
+        ctx.checkpoint()?;
+        let store = decode::decode_to_store(&sheet.image, ctx.work_dir())?;
         let format = match opts.texture_format {
             Some(f) => f,
             None => ImageFormat::of_source(&sheet.image)?,
         };
-        let path = output_sheet_path(output, k, format);
+        let path = output_sheet_path(&staged, k, format);
         let enc = EncodeOptions {
             format: Some(format),
             jpeg_quality: opts.jpeg_quality,
-            protect: protect.clone(),
+            protect: ctx.protected().to_vec(),
         };
         write_image(&store, &path, &enc)?;
         sheet.image = ImageSource::File(path.clone());
         sheet.size = Some((store.width(), store.height()));
-        written.push(path);
+        written.push(ctx.final_path(&path));
     }
     let textures_seconds = t1.elapsed().as_secs_f64();
 
     let t2 = Instant::now();
-    crate::io::write_model(&model, output, &WriteOptions { protect })?;
+    crate::io::write_model(&model, &staged, &ctx.write_options())?;
+    ctx.commit()?;
     Ok(ConvertReport {
         faces: model.faces.len(),
         sheets: written,
@@ -112,4 +110,9 @@ pub fn convert(
         textures_seconds,
         write_seconds: t2.elapsed().as_secs_f64(),
     })
+}
+
+/// The total size of `files` (what a written set is expected to weigh, from its inputs).
+pub(super) fn input_bytes(files: &[PathBuf]) -> u64 {
+    files.iter().filter_map(|p| std::fs::metadata(p).ok()).map(|m| m.len()).sum()
 }

@@ -3,9 +3,12 @@
 
 mod background;
 pub mod build;
+mod charts;
+pub mod context;
 pub mod convert;
 mod decode_ahead;
 pub mod defrag;
+mod emit;
 mod rigid_split;
 
 use std::path::{Path, PathBuf};
@@ -51,6 +54,10 @@ pub enum PipelineError {
     Defrag(#[from] crate::defrag::DefragError),
     #[error("packing: {0}")]
     Pack(#[from] crate::pack::PackError),
+    #[error(transparent)]
+    Output(#[from] crate::output_set::OutputError),
+    #[error(transparent)]
+    Interrupted(#[from] crate::cancel::Interrupted),
 }
 
 /// Reads a model and fills in every sheet's size from its image header (no pixels decoded).

@@ -19,7 +19,8 @@ pub fn run(args: &ConvertArgs, quiet: bool) -> Result<()> {
         work_dir: args.work_dir.clone(),
     };
     let stage = Stage::spinner("converting", quiet);
-    let report = convert(&args.input, &args.output, &opts)?;
+    let report = convert(&args.input, &args.output, &opts)
+        .map_err(|e| super::defrag::usage_or_failure(e.into()))?;
     stage.finish();
     if !quiet {
         eprintln!(

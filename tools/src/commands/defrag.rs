@@ -2,6 +2,8 @@
 //! name, a spinner per stage, a one-line summary on stderr and the full report as JSON on request.
 
 use anyhow::{Context, Result};
+use scanatlas_core::pipeline::PipelineError;
+use scanatlas_core::pipeline::context::{RunPaths, check_paths};
 use scanatlas_core::pipeline::defrag::{DefragConfig, DefragReport, defrag_with_progress};
 use scanatlas_core::plugin::Registry;
 use scanatlas_core::texture::ImageFormat;
@@ -26,6 +28,34 @@ pub fn builtin_registry() -> Registry {
     registry
 }
 
+/// A pipeline error as the command line reports it: a refused option or path is bad usage
+/// (exit status 2).
+pub fn usage_or_failure(e: anyhow::Error) -> anyhow::Error {
+    match e.downcast::<PipelineError>() {
+        Ok(PipelineError::Usage(msg)) => super::UsageError(msg).into(),
+        Ok(other) => other.into(),
+        Err(e) => e,
+    }
+}
+
+/// A run report with how the run ended (`completed`, or `interrupted` by a signal).
+#[derive(serde::Serialize)]
+struct StatusReport<'a, R: serde::Serialize> {
+    status: &'a str,
+    #[serde(flatten)]
+    report: &'a R,
+}
+
+/// Writes a report's bytes, atomically, never over one of `protect`.
+pub fn write_report(
+    path: &std::path::Path,
+    bytes: &[u8],
+    protect: &[std::path::PathBuf],
+) -> Result<()> {
+    scanatlas_core::atomic::write_atomic(path, protect, |w| w.write_all(bytes))
+        .with_context(|| format!("writing the report {}", path.display()))
+}
+
 /// Runs the pipeline with one spinner per stage (none with `--quiet`).
 pub fn run_pipeline(
     input: &std::path::Path,
@@ -48,16 +78,33 @@ pub fn run_pipeline(
 }
 
 pub fn run(args: &DefragArgs, quiet: bool) -> Result<()> {
-    // Every name and parameter is checked (exit status 2) before the model is read.
+    // Every name and parameter is checked (exit status 2) before the model is read; the output
+    // and report paths are checked by the pipeline before any work.
     let cfg = super::config::defrag_config(args, &builtin_registry())?;
-    let report = run_pipeline(&args.input, &args.output, &cfg, quiet)?;
+    let paths = RunPaths {
+        inputs: std::slice::from_ref(&args.input),
+        output: &args.output,
+        work_dir: args.work_dir.as_deref(),
+        report: args.report.as_deref(),
+    };
+    check_paths(&paths).map_err(|e| super::UsageError(e.to_string()))?;
+    let result = run_pipeline(&args.input, &args.output, &cfg, quiet).map_err(usage_or_failure);
     if let Some(path) = &args.report {
-        let json = serde_json::to_vec_pretty(&report)?;
-        scanatlas_core::atomic::write_atomic(path, std::slice::from_ref(&args.input), |w| {
-            w.write_all(&json)
-        })
-        .with_context(|| format!("writing the report {}", path.display()))?;
+        let status = match &result {
+            Ok(_) => "completed",
+            Err(_) if scanatlas_core::cancel::requested() => "interrupted",
+            // Refused or failed runs write no report: a refused path may be the report's.
+            Err(_) => return result.map(|_| ()),
+        };
+        let json = match &result {
+            Ok(report) => serde_json::to_vec_pretty(&StatusReport { status, report })?,
+            Err(_) => serde_json::to_vec_pretty(&serde_json::json!({
+                "status": status, "input": args.input, "output": args.output
+            }))?,
+        };
+        write_report(path, &json, &[args.input.clone(), args.output.clone()])?;
     }
+    let report = result?;
     if !quiet {
         let m = &report.merge;
         eprintln!(

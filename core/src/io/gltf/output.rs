@@ -175,6 +175,7 @@ pub(super) fn set_image_source(
     img: &mut Map<String, Value>,
     src: &ImageSource,
     out_dir: &Path,
+    opts: &WriteOptions,
     binary: bool,
     bin: &mut Bin,
     views: &mut Vec<Value>,
@@ -192,7 +193,7 @@ pub(super) fn set_image_source(
                 img.insert("mimeType".into(), json!(mime));
             }
             None => {
-                img.insert("uri".into(), json!(uri::relative_uri(out_dir, p)));
+                img.insert("uri".into(), json!(uri::relative_uri(out_dir, &opts.final_path(p))));
             }
         },
         ImageSource::Embedded { name, mime, bytes } => {

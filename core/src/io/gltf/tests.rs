@@ -798,7 +798,7 @@ fn writer_refuses_to_overwrite_inputs() {
     // `keep.gltf` would write `keep.bin`, the input's buffer.
     let e = write(&m, &dir.path().join("keep.gltf"), &WriteOptions::default(), false).unwrap_err();
     assert!(e.to_string().contains("refusing to overwrite"), "{e}");
-    let opts = WriteOptions { protect: vec![p.clone()] };
+    let opts = WriteOptions { protect: vec![p.clone()], ..Default::default() };
     assert!(write(&m, &p, &opts, false).is_err());
     assert!(!dir.path().join("in.bin").exists(), "no .bin written for a refused .gltf");
     assert_eq!(read(&p).unwrap().faces.len(), 2, "input intact");

@@ -223,7 +223,9 @@ pub(super) fn parent_dir(path: &Path) -> PathBuf {
 /// Resolves a file name written in an OBJ or MTL against the directory of that file. Backslashes
 /// are separators (files written on Windows); the result is lexically normalized so two
 /// spellings of one file give one sheet.
-pub(super) use crate::io::paths::{normalize, texture_reference};
+pub(super) use crate::io::paths::normalize;
+#[cfg(test)]
+use crate::io::paths::texture_reference;
 
 pub(super) fn resolve_texture(dir: &Path, name: &str) -> PathBuf {
     let name = name.replace('\\', "/");

@@ -12,7 +12,7 @@
 use std::convert::Infallible;
 use std::fs::File;
 use std::ops::Range;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 
@@ -202,7 +202,7 @@ fn load_mtllib(
     obj: &Path,
     line: u64,
     text: &str,
-) -> Result<(), IoError> {
+) -> Result<Vec<PathBuf>, IoError> {
     if text.is_empty() {
         return Err(IoError::line(obj, line, "mtllib without a file name"));
     }
@@ -223,10 +223,10 @@ fn load_mtllib(
             ));
         }
     };
-    for f in files {
-        table.load(&f)?;
+    for f in &files {
+        table.load(f)?;
     }
-    Ok(())
+    Ok(files)
 }
 
 /// Everything pass 2 needs for one chunk.
@@ -518,12 +518,13 @@ fn parse(path: &Path, bytes: &[u8], limit: u64, chunk: Option<usize>) -> Result<
     // Material libraries first (a `usemtl` may precede its `mtllib`), then the `usemtl`
     // switches and group markers in file order.
     let mut table = MaterialTable::default();
+    let mut libraries = Vec::new();
     for (s, b) in scans.iter().zip(&bases) {
         for d in s.directives.iter().filter(|d| d.kind == DirectiveKind::Mtllib) {
-            load_mtllib(&mut table, path, b.lines + d.line, &d.text)?;
+            libraries.extend(load_mtllib(&mut table, path, b.lines + d.line, &d.text)?);
         }
     }
-    let mut extras = ObjExtras::default();
+    let mut extras = ObjExtras { libraries, ..ObjExtras::default() };
     let mut current: Option<MaterialId> = None;
     let mut starts = Vec::with_capacity(scans.len());
     let mut switches = Vec::with_capacity(scans.len());

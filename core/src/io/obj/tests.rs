@@ -330,7 +330,7 @@ fn round_trip_to_another_directory() {
     let a = read(&obj).unwrap();
     let out = dir.path().join("out/sub/result.obj");
     std::fs::create_dir_all(out.parent().unwrap()).unwrap();
-    write(&a, &out, &WriteOptions { protect: vec![obj.clone()] }).unwrap();
+    write(&a, &out, &WriteOptions { protect: vec![obj.clone()], ..Default::default() }).unwrap();
 
     let mtl = std::fs::read_to_string(dir.path().join("out/sub/result.mtl")).unwrap();
     assert!(mtl.contains("map_Kd -s 1 1 1 -clamp on ../../tex dir/shared tex.png\n"), "{mtl}");
@@ -424,15 +424,20 @@ fn writer_refuses_protected_targets_and_writes_nothing() {
     let obj = fixture(dir.path());
     let m = read(&obj).unwrap();
     let before = std::fs::read(&obj).unwrap();
-    let err = write(&m, &obj, &WriteOptions { protect: vec![obj.clone()] }).unwrap_err();
+    let err = write(&m, &obj, &WriteOptions { protect: vec![obj.clone()], ..Default::default() })
+        .unwrap_err();
     assert!(err.to_string().contains("refusing to overwrite"), "{err}");
     assert_eq!(std::fs::read(&obj).unwrap(), before);
 
     // Protecting only the MTL that would be written also stops the OBJ.
     let out = dir.path().join("copy.obj");
     std::fs::write(dir.path().join("copy.mtl"), b"keep").unwrap();
-    let err =
-        write(&m, &out, &WriteOptions { protect: vec![dir.path().join("copy.mtl")] }).unwrap_err();
+    let err = write(
+        &m,
+        &out,
+        &WriteOptions { protect: vec![dir.path().join("copy.mtl")], ..Default::default() },
+    )
+    .unwrap_err();
     assert!(err.to_string().contains("copy.mtl"), "{err}");
     assert!(!out.exists());
     assert_eq!(std::fs::read(dir.path().join("copy.mtl")).unwrap(), b"keep");

@@ -644,14 +644,14 @@ fn writer_refuses_protected_paths_and_leaves_them_intact() {
     let m = sample_model(dir.path());
     let target = dir.path().join("in.ply");
     std::fs::write(&target, b"original").unwrap();
-    let opts = WriteOptions { protect: vec![target.clone()] };
+    let opts = WriteOptions { protect: vec![target.clone()], ..Default::default() };
     let e = write(&m, &target, &opts).unwrap_err().to_string();
     assert!(e.contains("refusing to overwrite"), "{e}");
     assert_eq!(std::fs::read(&target).unwrap(), b"original");
     // An embedded image may not overwrite an input either.
     let img = dir.path().join("baked.jpg");
     std::fs::write(&img, b"input image").unwrap();
-    let opts = WriteOptions { protect: vec![img.clone()] };
+    let opts = WriteOptions { protect: vec![img.clone()], ..Default::default() };
     assert!(write(&m, &dir.path().join("new.ply"), &opts).is_err());
     assert_eq!(std::fs::read(&img).unwrap(), b"input image");
     assert!(!dir.path().join("new.ply").exists());
