@@ -4,10 +4,14 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
+/// The version with the git commit it was built from, as `--version` prints it.
+pub const VERSION_WITH_COMMIT: &str =
+    concat!(env!("CARGO_PKG_VERSION"), " (", env!("SCANATLAS_COMMIT"), ")");
+
 #[derive(Debug, Parser)]
 #[command(
     name = "scanatlas",
-    version,
+    version = VERSION_WITH_COMMIT,
     about = "Repairs and builds texture atlases of huge photogrammetry scans"
 )]
 pub struct Cli {
@@ -53,6 +57,56 @@ pub enum Command {
     /// Scores any textured model against a synthetic rig: PSNR against the true colour, seam
     /// colour jump, texel density, UV defects.
     RigScore(RigScoreArgs),
+    /// Runs `defrag` (or `build`) over a folder or manifest of models, one child process per
+    /// model: resumable, locked, logged to OUT_DIR/batch.jsonl, sharded for job arrays.
+    Batch(BatchArgs),
+    /// The table of a batch's models (status, figures, totals) from OUT_DIR/batch.jsonl.
+    BatchSummary(BatchSummaryArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct BatchArgs {
+    /// A folder (every .obj, .gltf, .glb, .ply below it) or a manifest (.jsonl, .json, .toml).
+    pub input: PathBuf,
+    /// Output folder: each model's outputs and report go to OUT_DIR/<its relative path>/.
+    #[arg(short, long, value_name = "OUT_DIR")]
+    pub output: PathBuf,
+    /// Process only share I of N (0-based) of the sorted model list (default: from
+    /// SLURM_ARRAY_TASK_ID and SLURM_ARRAY_TASK_COUNT, or JOB_COMPLETION_INDEX with --shards).
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<String>,
+    /// The number of shards when the index comes from JOB_COMPLETION_INDEX (Kubernetes).
+    #[arg(long, value_name = "N")]
+    pub shards: Option<u32>,
+    /// Models processed at once; the threads are split between them.
+    #[arg(long, value_name = "K", default_value_t = 1)]
+    pub jobs: usize,
+    /// Memory the running models may use together, e.g. `16G` (default: the cgroup's limit,
+    /// else the machine's memory).
+    #[arg(long, value_name = "BYTES")]
+    pub memory_budget: Option<String>,
+    /// Kill a model's run after this many seconds and log it `failed` (0: no limit).
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.0)]
+    pub model_timeout: f64,
+    /// Redo every model, even those whose outputs are complete and up to date.
+    #[arg(long)]
+    pub force: bool,
+    /// Print the summary table of OUT_DIR after the run.
+    #[arg(long)]
+    pub summary: bool,
+    /// `defrag` options for every model, after the batch's own (`--solver slim --padding 2`);
+    /// a manifest's per-model options override them.
+    #[arg(trailing_var_arg = true, allow_hyphen_values = true, value_name = "DEFRAG OPTIONS")]
+    pub defrag_options: Vec<String>,
+}
+
+#[derive(Debug, Args)]
+pub struct BatchSummaryArgs {
+    /// The batch's output folder (with its batch.jsonl).
+    pub out_dir: PathBuf,
+    /// Print the table as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(Debug, Args)]

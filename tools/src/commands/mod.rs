@@ -1,5 +1,6 @@
 //! Dispatch of the subcommands.
 
+mod batch;
 mod build;
 mod config;
 mod convert;
@@ -40,5 +41,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Build(a) => build::run(&a, quiet),
         Command::SynthRig(a) => synth_rig::run(&a, quiet),
         Command::RigScore(a) => rig_score::run(&a),
+        Command::Batch(a) => batch::run(&a, &cli.global),
+        Command::BatchSummary(a) => batch::summary::run(&a),
     }
 }
