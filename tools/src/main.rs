@@ -1,13 +1,10 @@
 //! The `scanatlas` command line: argument parsing, logging, and exit codes (0 success, 1 failure,
 //! 2 bad usage). Every subcommand lives in its own module under `commands/`.
 
-mod cli;
-mod commands;
-mod progress;
-
 use std::process::ExitCode;
 
 use clap::Parser;
+use scanatlas_cli::{cli, commands};
 
 fn main() -> ExitCode {
     let args = cli::Cli::parse();

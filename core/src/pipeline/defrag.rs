@@ -42,7 +42,10 @@ pub struct DefragConfig {
     pub pack: PackOptions,
     /// Texture format of the output sheets; `None` keeps the format of the first input sheet.
     pub texture_format: Option<ImageFormat>,
+    /// Quality (1 to 100) of JPEG sheets and of lossy WebP sheets.
     pub jpeg_quality: u8,
+    /// WebP sheets are lossy (at `jpeg_quality`) instead of lossless.
+    pub lossy_webp: bool,
     /// Folder of the temporary tile files; `None` = the output's folder.
     pub work_dir: Option<PathBuf>,
     /// Count overlapping texels in the input and output metrics; `None` = only when cheap
@@ -74,6 +77,7 @@ impl Default for DefragConfig {
             pack: PackOptions::default(),
             texture_format: None,
             jpeg_quality: 90,
+            lossy_webp: false,
             work_dir: None,
             metrics_overlaps: None,
             merge_only: false,
@@ -545,6 +549,7 @@ fn synthesize(
     let enc = EncodeOptions {
         format: Some(format),
         jpeg_quality: cfg.jpeg_quality,
+        webp_quality: cfg.lossy_webp.then_some(cfg.jpeg_quality),
         protect: protect.to_vec(),
     };
     let paths = super::convert::write_sheets(&out.sheets, output, format, &enc)?;

@@ -9,10 +9,9 @@ use scanatlas_core::plugin::Registry;
 use crate::cli::BuildArgs;
 use crate::progress::Stage;
 
-pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
-    let mut registry = Registry::default();
-    scanatlas_plugins::register_builtin(&mut registry);
-    let cfg = BuildConfig {
+/// The build configuration the arguments ask for.
+pub fn build_config(args: &BuildArgs) -> BuildConfig {
+    BuildConfig {
         packer: args.packer.clone(),
         max_sheet_size: args.max_sheet_size,
         smoothing: !args.no_smoothing,
@@ -25,7 +24,13 @@ pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
             ..SeamPlacementOptions::default()
         },
         ..BuildConfig::default()
-    };
+    }
+}
+
+pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
+    let mut registry = Registry::default();
+    scanatlas_plugins::register_builtin(&mut registry);
+    let cfg = build_config(args);
     let stage = Stage::spinner("building the atlas", quiet);
     let report = build(&args.mesh, &args.cameras, &args.images, &args.output, &registry, &cfg)?;
     stage.finish();

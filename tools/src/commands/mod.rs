@@ -1,10 +1,12 @@
 //! Dispatch of the subcommands.
 
-mod build;
-mod config;
+pub mod build;
+mod completions;
+pub mod config;
 mod convert;
-mod defrag;
+pub mod defrag;
 mod demo;
+mod man;
 mod plugins;
 mod rig_score;
 mod stats;
@@ -40,5 +42,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Build(a) => build::run(&a, quiet),
         Command::SynthRig(a) => synth_rig::run(&a, quiet),
         Command::RigScore(a) => rig_score::run(&a),
+        Command::Completions(a) => completions::run(&a),
+        Command::Man(a) => man::run(&a),
     }
 }
