@@ -2,13 +2,10 @@
 //! 1 failure, 2 bad usage, 130 and 143 when stopped by SIGINT and SIGTERM). Every subcommand
 //! lives in its own module under `commands/`.
 
-mod cli;
-mod commands;
-mod progress;
-
 use std::process::ExitCode;
 
 use clap::Parser;
+use scanatlas_cli::{cli, commands};
 
 fn main() -> ExitCode {
     let args = cli::Cli::parse();

@@ -666,6 +666,7 @@ pub fn build(
     let enc = EncodeOptions {
         format: Some(cfg.texture_format),
         jpeg_quality: 92,
+        webp_quality: None,
         protect: protect.clone(),
     };
     let sheet_paths = super::convert::write_sheets(&res.sheets, output, cfg.texture_format, &enc)?;

@@ -17,7 +17,10 @@ use crate::texture::{ImageFormat, TileStore, decode};
 pub struct ConvertOptions {
     /// Texture format of the output sheets; `None` keeps each sheet's input format.
     pub texture_format: Option<ImageFormat>,
+    /// Quality (1 to 100) of JPEG sheets and of lossy WebP sheets.
     pub jpeg_quality: u8,
+    /// WebP sheets are lossy (at `jpeg_quality`) instead of lossless.
+    pub lossy_webp: bool,
     /// Folder for tile files; `None` = the output's folder.
     pub work_dir: Option<PathBuf>,
 }
@@ -91,6 +94,7 @@ pub fn convert(
         let enc = EncodeOptions {
             format: Some(format),
             jpeg_quality: opts.jpeg_quality,
+            webp_quality: opts.lossy_webp.then_some(opts.jpeg_quality),
             protect: ctx.protected().to_vec(),
         };
         write_image(&store, &path, &enc)?;

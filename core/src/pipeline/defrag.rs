@@ -39,7 +39,10 @@ pub struct DefragConfig {
     pub pack: PackOptions,
     /// Texture format of the output sheets; `None` keeps the format of the first input sheet.
     pub texture_format: Option<ImageFormat>,
+    /// Quality (1 to 100) of JPEG sheets and of lossy WebP sheets.
     pub jpeg_quality: u8,
+    /// WebP sheets are lossy (at `jpeg_quality`) instead of lossless.
+    pub lossy_webp: bool,
     /// Folder of the temporary tile files; `None` = the output's folder.
     pub work_dir: Option<PathBuf>,
     /// A report file the caller writes after the run: checked with the outputs before any work,
@@ -74,6 +77,7 @@ impl Default for DefragConfig {
             pack: PackOptions::default(),
             texture_format: None,
             jpeg_quality: 90,
+            lossy_webp: false,
             work_dir: None,
             report: None,
             metrics_overlaps: None,

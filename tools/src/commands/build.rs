@@ -11,11 +11,9 @@ use scanatlas_core::plugin::{Params, PluginKind};
 use crate::cli::BuildArgs;
 use crate::progress::Stage;
 
-pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
-    let mut registry = Registry::default();
-    scanatlas_plugins::register_builtin(&mut registry);
-    check_usage(args, &registry)?;
-    let cfg = BuildConfig {
+/// The build configuration the arguments ask for.
+pub fn build_config(args: &BuildArgs) -> BuildConfig {
+    BuildConfig {
         packer: args.packer.clone(),
         max_sheet_size: args.max_sheet_size,
         smoothing: !args.no_smoothing,
@@ -28,7 +26,14 @@ pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
             ..SeamPlacementOptions::default()
         },
         ..BuildConfig::default()
-    };
+    }
+}
+
+pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
+    let mut registry = Registry::default();
+    scanatlas_plugins::register_builtin(&mut registry);
+    check_usage(args, &registry)?;
+    let cfg = build_config(args);
     let stage = Stage::spinner("building the atlas", quiet);
     let report = build(&args.mesh, &args.cameras, &args.images, &args.output, &registry, &cfg)
         .map_err(|e| super::defrag::usage_or_failure(e.into()))?;

@@ -2,20 +2,15 @@
 
 use anyhow::Result;
 use scanatlas_core::pipeline::convert::{ConvertOptions, convert};
-use scanatlas_core::texture::ImageFormat;
 
 use crate::cli::{ConvertArgs, TextureFormatArg};
 use crate::progress::Stage;
 
 pub fn run(args: &ConvertArgs, quiet: bool) -> Result<()> {
     let opts = ConvertOptions {
-        texture_format: args.texture_format.map(|f| match f {
-            TextureFormatArg::Png => ImageFormat::Png,
-            TextureFormatArg::Jpg => ImageFormat::Jpeg,
-            TextureFormatArg::Tiff => ImageFormat::Tiff,
-            TextureFormatArg::Exr => ImageFormat::Exr,
-        }),
+        texture_format: args.texture_format.map(super::defrag::image_format),
         jpeg_quality: args.jpeg_quality,
+        lossy_webp: args.texture_format.is_some_and(TextureFormatArg::is_lossy_webp),
         work_dir: args.work_dir.clone(),
     };
     let stage = Stage::spinner("converting", quiet);

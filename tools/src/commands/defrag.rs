@@ -18,6 +18,7 @@ pub fn image_format(f: TextureFormatArg) -> ImageFormat {
         TextureFormatArg::Jpg => ImageFormat::Jpeg,
         TextureFormatArg::Tiff => ImageFormat::Tiff,
         TextureFormatArg::Exr => ImageFormat::Exr,
+        TextureFormatArg::Webp | TextureFormatArg::WebpLossy => ImageFormat::Webp,
     }
 }
 

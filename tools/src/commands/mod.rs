@@ -1,11 +1,13 @@
 //! Dispatch of the subcommands.
 
 mod batch;
-mod build;
-mod config;
+pub mod build;
+mod completions;
+pub mod config;
 mod convert;
-mod defrag;
+pub mod defrag;
 mod demo;
+mod man;
 mod plugins;
 mod rig_score;
 mod stats;
@@ -43,5 +45,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::RigScore(a) => rig_score::run(&a),
         Command::Batch(a) => batch::run(&a, &cli.global),
         Command::BatchSummary(a) => batch::summary::run(&a),
+        Command::Completions(a) => completions::run(&a),
+        Command::Man(a) => man::run(&a),
     }
 }

@@ -103,9 +103,8 @@ struct Block {
 }
 
 pub(super) fn read(path: &Path) -> Result<Model, IoError> {
-    let doc = source::open_document(path)?;
-    let json = &doc.json;
-    let version = json.get("asset").and_then(|a| a.get("version")).and_then(Value::as_str);
+    let mut doc = source::open_document(path)?;
+    let version = doc.json.get("asset").and_then(|a| a.get("version")).and_then(Value::as_str);
     match version {
         Some(v) if v.starts_with("2.") => {}
         Some(v) => {
@@ -116,8 +115,9 @@ pub(super) fn read(path: &Path) -> Result<Model, IoError> {
         }
         None => return Err(IoError::invalid(path, "missing asset.version")),
     }
-    source::check_compression(path, json)?;
-    let buffers = source::load_buffers(path, &doc.json, &doc)?;
+    // Draco primitives are decoded here; the document then reads as a plain glTF.
+    let (buffers, draco) = super::draco::load(path, &mut doc)?;
+    let json = &doc.json;
     let used = |name: &str| {
         json.get("extensionsUsed")
             .and_then(Value::as_array)
@@ -131,6 +131,11 @@ pub(super) fn read(path: &Path) -> Result<Model, IoError> {
         model: Model { path: path.to_path_buf(), ..Model::default() },
         spans: Vec::new(),
     };
+    if draco > 0 {
+        r.model.notes.push(format!(
+            "{draco} Draco-compressed primitive(s) decoded; a written glTF stores them uncompressed"
+        ));
+    }
     let transforms = r.materials()?;
     r.meshes(&transforms)?;
     let nodes = read_nodes(path, json)?;
@@ -205,8 +210,8 @@ impl<'a> Reader<'a> {
         Ok(transforms)
     }
 
-    /// The image of texture `t`, refusing textures whose only image is in a format scanatlas
-    /// cannot decode (WebP, Basis Universal, ...).
+    /// The image of texture `t` (its `source`, else its `EXT_texture_webp` source), refusing
+    /// textures whose only image is in a format scanatlas cannot decode (Basis Universal, ...).
     fn texture_image(&mut self, t: usize, material: usize) -> Result<Option<usize>, IoError> {
         let tex = item(self.json, "textures", t)
             .map_err(|m| self.invalid(format!("materials[{material}]: {m}")))?;
@@ -216,6 +221,15 @@ impl<'a> Reader<'a> {
             return Ok(Some(s));
         }
         if let Some(exts) = tex.get("extensions").and_then(Value::as_object) {
+            // WebP images are decoded like PNG and JPEG ones.
+            if let Some(e) = exts.get("EXT_texture_webp") {
+                let xctx = format!("{ctx}.extensions.EXT_texture_webp");
+                let s = opt_usize(e, "source", &xctx)
+                    .map_err(|m| self.invalid(m))?
+                    .ok_or_else(|| self.invalid(format!("{xctx}: missing source")))?;
+                item(self.json, "images", s).map_err(|m| self.invalid(format!("{xctx}: {m}")))?;
+                return Ok(Some(s));
+            }
             for (name, e) in exts {
                 if e.get("source").is_some() {
                     return Err(IoError::unsupported(

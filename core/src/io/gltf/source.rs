@@ -34,6 +34,12 @@ pub(super) struct BufferData {
 }
 
 impl BufferData {
+    /// A buffer made in memory (decoded Draco geometry).
+    pub(super) fn owned(bytes: Vec<u8>) -> Self {
+        let range = 0..bytes.len();
+        Self { backing: Backing::Owned(bytes), range, file: None }
+    }
+
     pub(super) fn bytes(&self) -> &[u8] {
         match &self.backing {
             Backing::Map(m) => &m[self.range.clone()],
@@ -161,21 +167,21 @@ fn parse_glb(path: &Path, b: &[u8]) -> Result<(Range<usize>, Option<Range<usize>
 }
 
 /// Extensions whose data scanatlas cannot decode.
-const COMPRESSION_EXTENSIONS: [&str; 3] =
-    ["KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_meshopt_compression"];
+/// (`KHR_draco_mesh_compression` is decoded, see `draco`.)
+const COMPRESSION_EXTENSIONS: [&str; 2] = ["EXT_meshopt_compression", "KHR_meshopt_compression"];
 
 fn compression_error(path: &Path, ext: &str, place: &str) -> IoError {
     IoError::unsupported(
         path,
         format!(
             "{ext} ({place}): compressed geometry cannot be read; decompress the file first, \
-             e.g. `gltf-transform cp IN OUT` (which decodes Draco and meshopt) or re-export \
+             e.g. `gltf-transform cp IN OUT` (which decodes meshopt) or re-export \
              without compression"
         ),
     )
 }
 
-/// Refuses Draco and meshopt compression wherever it may appear, before any buffer is read.
+/// Refuses meshopt compression wherever it may appear, before any buffer is read.
 pub(super) fn check_compression(path: &Path, json: &Value) -> Result<(), IoError> {
     for key in ["extensionsRequired", "extensionsUsed"] {
         if let Some(list) = json.get(key).and_then(Value::as_array) {
