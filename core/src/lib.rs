@@ -5,7 +5,6 @@
 //! user data, never reorders or drops input faces, and never holds a whole texture sheet in RAM.
 
 pub mod atomic;
-pub mod build;
 pub mod defrag;
 pub mod geometry;
 pub mod index;
@@ -13,6 +12,7 @@ pub mod io;
 pub mod metrics;
 pub mod model;
 pub mod pack;
+pub mod photo_atlas;
 pub mod pipeline;
 pub mod plugin;
 pub mod synth;

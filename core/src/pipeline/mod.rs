@@ -51,6 +51,9 @@ pub enum PipelineError {
     Defrag(#[from] crate::defrag::DefragError),
     #[error("packing: {0}")]
     Pack(#[from] crate::pack::PackError),
+    /// Cameras or photos of a `build` that cannot be read or do not fit together.
+    #[error(transparent)]
+    Build(#[from] crate::photo_atlas::BuildError),
 }
 
 /// Reads a model and fills in every sheet's size from its image header (no pixels decoded).

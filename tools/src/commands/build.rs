@@ -2,8 +2,8 @@
 //! registered photographs.
 
 use anyhow::{Context, Result};
-use scanatlas_core::build::seam_placement::SeamPlacementOptions;
-use scanatlas_core::pipeline::build::{BuildConfig, build};
+use scanatlas_core::photo_atlas::seam_placement::SeamPlacementOptions;
+use scanatlas_core::pipeline::build::{BuildConfig, build_with_progress};
 use scanatlas_core::plugin::Registry;
 
 use crate::cli::BuildArgs;
@@ -26,9 +26,19 @@ pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
         },
         ..BuildConfig::default()
     };
-    let stage = Stage::spinner("building the atlas", quiet);
-    let report = build(&args.mesh, &args.cameras, &args.images, &args.output, &registry, &cfg)?;
-    stage.finish();
+    let mut stage: Option<Stage> = None;
+    let (mesh, cameras, images) = (&args.mesh, &args.cameras, &args.images);
+    let report =
+        build_with_progress(mesh, cameras, images, &args.output, &registry, &cfg, &mut |s| {
+            if let Some(old) = stage.take() {
+                old.finish();
+            }
+            stage = Some(Stage::spinner(s.label(), quiet));
+        });
+    if let Some(old) = stage.take() {
+        old.finish();
+    }
+    let report = report?;
     if let Some(p) = &args.report {
         let json = serde_json::to_string_pretty(&report)?;
         scanatlas_core::atomic::write_atomic::<std::io::Error, _>(p, &[], |w| {
