@@ -4,6 +4,8 @@
 //! Architecture invariants (see `ARCHITECTURE.md` §3): library code never prints, never panics on
 //! user data, never reorders or drops input faces, and never holds a whole texture sheet in RAM.
 
+#![cfg_attr(not(test), deny(clippy::print_stdout, clippy::print_stderr))]
+
 pub mod atomic;
 pub mod defrag;
 pub mod geometry;
