@@ -301,7 +301,8 @@ pub struct SynthArgs {
 
 #[derive(Debug, Args)]
 pub struct DemoArgs {
-    /// Output folder (default: ./scanatlas-demo).
+    /// Output folder (default: `scanatlas-demo` in the system's temporary folder, outside any
+    /// source tree).
     pub out_dir: Option<PathBuf>,
 }
 

@@ -18,6 +18,7 @@
 
 mod attempt;
 mod clusters;
+mod commit;
 mod greedy;
 mod grid;
 mod kernel;

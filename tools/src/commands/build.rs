@@ -2,8 +2,8 @@
 //! registered photographs.
 
 use anyhow::Result;
-use scanatlas_core::build::seam_placement::SeamPlacementOptions;
-use scanatlas_core::pipeline::build::{BuildConfig, build};
+use scanatlas_core::photo_atlas::seam_placement::SeamPlacementOptions;
+use scanatlas_core::pipeline::build::{BuildConfig, build_with_progress};
 use scanatlas_core::pipeline::context::{RunPaths, check_paths};
 use scanatlas_core::plugin::Registry;
 use scanatlas_core::plugin::{Params, PluginKind};
@@ -34,10 +34,19 @@ pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
     scanatlas_plugins::register_builtin(&mut registry);
     check_usage(args, &registry)?;
     let cfg = build_config(args);
-    let stage = Stage::spinner("building the atlas", quiet);
-    let report = build(&args.mesh, &args.cameras, &args.images, &args.output, &registry, &cfg)
-        .map_err(|e| super::defrag::usage_or_failure(e.into()))?;
-    stage.finish();
+    let mut stage: Option<Stage> = None;
+    let (mesh, cameras, images) = (&args.mesh, &args.cameras, &args.images);
+    let report =
+        build_with_progress(mesh, cameras, images, &args.output, &registry, &cfg, &mut |s| {
+            if let Some(old) = stage.take() {
+                old.finish();
+            }
+            stage = Some(Stage::spinner(s.label(), quiet));
+        });
+    if let Some(old) = stage.take() {
+        old.finish();
+    }
+    let report = report.map_err(|e| super::defrag::usage_or_failure(e.into()))?;
     if let Some(p) = &args.report {
         let json = serde_json::to_string_pretty(&report)?;
         let protect = [args.mesh.clone(), args.cameras.clone(), args.output.clone()];

@@ -304,7 +304,7 @@ fn a_gaussian_level_sampled_at_level_uvs_reproduces_a_linear_ramp() {
         }
         for p in [[60.3, 70.9], [101.0, 150.5], [128.0, 100.0]] {
             let q = to_level(p, l, h);
-            let got = crate::build::smoothing::sample(&level, q)[0];
+            let got = crate::photo_atlas::smoothing::sample(&level, q)[0];
             let want = ramp(p[0], f64::from(h) - p[1]);
             assert!((got - want).abs() < 1e-3, "level {l} at {p:?}: {got} vs {want}");
         }

@@ -1,19 +1,25 @@
-//! `build`: a texture atlas from registered photographs (Velho & Sossai, "Projective texture
-//! atlas construction for 3D photography"): cameras (COLMAP, Bundler), visibility, the
-//! variational distortion-based partition, projective parametrization, the frequency analysis
-//! and frequency-based chart splitting (Laplacian pyramids), and colour smoothing.
-//! The orchestration (packing, texturing, output) lives in [`crate::pipeline::build`].
+//! The photo atlas: the algorithms of the `build` command, which makes a texture atlas from
+//! registered photographs (Velho & Sossai, "Projective texture atlas construction for 3D
+//! photography"): cameras (COLMAP, Bundler), visibility, the variational distortion-based
+//! partition, exposure gains, seam placement, the frequency analysis and frequency-based chart
+//! splitting (Laplacian pyramids), the fill of unseen faces, colour smoothing and the Table 1
+//! efficiencies. The stages that order them (packing, texturing, output) live in
+//! [`crate::pipeline::build`].
 
 pub mod bundler;
 pub mod cameras;
 pub mod colmap;
+pub mod efficiency;
 pub mod exposure;
+pub mod fill;
 pub mod frequency;
+pub mod frequency_split;
 pub mod occlusion;
 pub mod partition;
 pub mod photo_ring;
 pub mod pyramid;
 pub mod seam_placement;
+pub mod seam_smoothing;
 pub mod smoothing;
 pub mod split;
 pub mod visibility;

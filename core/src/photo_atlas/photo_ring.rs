@@ -11,8 +11,9 @@
 //! A ring texel also carries the difference between the output and the source at the texel it
 //! continues (the exposure gain and, after smoothing, the colour correction), so the ring stays
 //! consistent with the corrected interior.
-use crate::build::smoothing::{read_rgb, write_rgb};
+use super::partition::NONE;
 use crate::geometry::GridTransform;
+use crate::photo_atlas::smoothing::{read_rgb, write_rgb};
 use crate::texture::TileStore;
 use crate::texture::gutter::Coverage;
 use crate::texture::raster::{PixelRect, rasterize_triangle};
@@ -147,4 +148,32 @@ pub fn fill_rings(
             }
         }
     }
+}
+
+/// The packed sub-charts that were placed as exact grid copies of their source: `face_sub` is
+/// each face's sub-chart ([`NONE`] for the unseen), `sub_sheet` each sub-chart's input sheet.
+pub fn ring_charts(
+    face_sub: &[u32],
+    sub_sheet: &[u32],
+    packed: &crate::pack::PackedLayout,
+) -> Vec<RingChart> {
+    let mut index = vec![NONE; sub_sheet.len()];
+    let mut out: Vec<RingChart> = Vec::new();
+    for (f, &s) in face_sub.iter().enumerate() {
+        if s == NONE {
+            continue;
+        }
+        let Some(transform) = packed.chart_transform[s as usize] else { continue };
+        if index[s as usize] == NONE {
+            index[s as usize] = out.len() as u32;
+            out.push(RingChart {
+                out_sheet: packed.face_sheet[f],
+                src_sheet: sub_sheet[s as usize],
+                transform,
+                faces: Vec::new(),
+            });
+        }
+        out[index[s as usize] as usize].faces.push(f as u32);
+    }
+    out
 }

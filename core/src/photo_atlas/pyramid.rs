@@ -290,3 +290,30 @@ pub fn reduce_store(src: &TileStore, work_dir: &Path) -> Result<TileStore, Textu
     dst.release_all();
     Ok(dst)
 }
+
+/// The Gaussian levels `l` of a photo with `wanted[l]` (l ≥ 1), finest first, by repeated
+/// [`reduce_store`]; a level on the way that is not wanted is dropped once the next one exists.
+pub fn gaussian_levels(
+    photo: &TileStore,
+    wanted: &[bool; MAX_LEVELS],
+    work_dir: &Path,
+) -> Result<Vec<TileStore>, TextureError> {
+    let top = wanted.iter().rposition(|&w| w).unwrap_or(0);
+    let mut out: Vec<TileStore> = Vec::new();
+    // The last level built when it is not wanted; otherwise it is `out`'s last.
+    let mut scratch: Option<TileStore> = None;
+    for &want in wanted.iter().take(top + 1).skip(1) {
+        let next = match (&scratch, out.last()) {
+            (Some(s), _) => reduce_store(s, work_dir)?,
+            (None, Some(o)) => reduce_store(o, work_dir)?,
+            (None, None) => reduce_store(photo, work_dir)?,
+        };
+        if want {
+            out.push(next);
+            scratch = None;
+        } else {
+            scratch = Some(next);
+        }
+    }
+    Ok(out)
+}

@@ -19,8 +19,7 @@ use std::collections::{BinaryHeap, HashMap};
 use super::cameras::{PhotoCamera, dot, normalize, sub};
 use super::visibility::{Visibility, face_normal_area};
 
-/// Marks "no chart" / "no neighbour".
-pub const NONE: u32 = u32::MAX;
+pub use crate::index::NONE;
 
 /// Edge-adjacent faces of each face (manifold edges only: an edge with three or more faces
 /// joins nothing).

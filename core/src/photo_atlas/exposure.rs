@@ -16,9 +16,9 @@
 //! Photos are read one at a time in camera order (their pages released after), so a capture of
 //! hundreds of large photos costs no more memory than one photo's sampled pages.
 
-use crate::build::cameras::PhotoCamera;
-use crate::build::smoothing::{self, Rgb};
-use crate::build::visibility::Visibility;
+use crate::photo_atlas::cameras::PhotoCamera;
+use crate::photo_atlas::smoothing::{self, Rgb};
+use crate::photo_atlas::visibility::Visibility;
 use crate::texture::{SampleType, TileStore};
 
 /// Options of the estimate.
@@ -347,4 +347,32 @@ fn rms_of(
         }
     }
     (if n > 0 { (sq / n as f64).sqrt() } else { 0.0 }, n)
+}
+
+/// Brings texels to the common exposure: an 8-bit lookup table per photo, made when first
+/// needed, or the float path for other formats.
+pub struct ExposureLuts<'a> {
+    gains: &'a Exposure,
+    luts: Vec<Option<[[u8; 256]; 3]>>,
+}
+
+impl<'a> ExposureLuts<'a> {
+    pub fn new(gains: &'a Exposure) -> Self {
+        Self { gains, luts: vec![None; gains.gains.len()] }
+    }
+
+    /// Texel `(x, y)` of `store`, taken from photo `cam`, to the common exposure.
+    pub fn apply(&mut self, store: &mut TileStore, x: u32, y: u32, cam: usize) {
+        let format = store.format();
+        if format.sample == SampleType::U8 && format.channels >= 3 {
+            let lut = self.luts[cam].get_or_insert_with(|| self.gains.lut8(cam));
+            let px = store.pixel_mut(x, y);
+            for c in 0..3 {
+                px[c] = lut[c][usize::from(px[c])];
+            }
+        } else {
+            let v = smoothing::read_rgb(store, x, y);
+            smoothing::write_rgb(store, x, y, self.gains.correct(cam, v, format.sample));
+        }
+    }
 }

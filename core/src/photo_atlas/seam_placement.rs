@@ -430,7 +430,7 @@ fn compact_charts(part: &mut Partition) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::build::partition::face_adjacency;
+    use crate::photo_atlas::partition::face_adjacency;
 
     /// Six triangles around vertex 0 (a closed fan, corners 1..=6 on the rim).
     fn fan() -> Vec<[u32; 3]> {
