@@ -37,17 +37,32 @@ impl Status {
 
 /// The key figures of a finished model, read from its report.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct Figures {
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub faces: Option<u64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub charts_in: Option<u64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub charts_out: Option<u64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub texels_in: Option<u64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub texels_out: Option<u64>,
     /// Share of the 3-D area whose texels are copied verbatim from the input grid (the input
     /// itself is on its grid everywhere).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub grid_preserved_area_out: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub uv_border_in: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub uv_border_out: Option<f64>,
+}
+
+impl Figures {
+    pub fn is_empty(&self) -> bool {
+        *self == Figures::default()
+    }
 }
 
 /// One line of the log.
@@ -68,7 +83,7 @@ pub struct Entry {
     pub peak_rss_bytes: Option<u64>,
     pub threads: Option<usize>,
     pub warnings: Option<u64>,
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Figures::is_empty")]
     pub figures: Figures,
     pub version: String,
     pub commit: String,
@@ -77,9 +92,9 @@ pub struct Entry {
     pub pid: u32,
 }
 
-/// Appends `entry` as one line: a single `write` of the whole line on an `O_APPEND` file, then
-/// `fsync`.
-pub fn append(out_dir: &Path, entry: &Entry) -> Result<()> {
+/// Appends `entry` as one line: a single `write` of the whole line on an `O_APPEND` file, then,
+/// with `sync`, `fdatasync`.
+pub fn append(out_dir: &Path, entry: &Entry, sync: bool) -> Result<()> {
     let path = out_dir.join(LOG_FILE);
     let mut line = serde_json::to_vec(entry)?;
     line.push(b'\n');
@@ -89,7 +104,9 @@ pub fn append(out_dir: &Path, entry: &Entry) -> Result<()> {
         .open(&path)
         .with_context(|| format!("opening the batch log {}", path.display()))?;
     file.write_all(&line).with_context(|| format!("writing the batch log {}", path.display()))?;
-    file.sync_data().with_context(|| format!("syncing the batch log {}", path.display()))?;
+    if sync {
+        file.sync_data().with_context(|| format!("syncing the batch log {}", path.display()))?;
+    }
     Ok(())
 }
 

@@ -30,6 +30,22 @@ use shard::Shard;
 const VERSION: &str = env!("CARGO_PKG_VERSION");
 const COMMIT: &str = env!("SCANATLAS_COMMIT");
 
+/// A model that needs running, locked, with its process arguments.
+struct Ready {
+    index: usize,
+    lock: std::fs::File,
+    args: Vec<String>,
+    identity: Identity,
+    memory_estimate: u64,
+}
+
+/// What the record of a success says about the model's inputs and options.
+struct Identity {
+    input_hash: String,
+    inputs: Vec<inputs::Stamp>,
+    options_hash: String,
+}
+
 /// What the whole run shares.
 struct Batch<'a> {
     out_dir: PathBuf,
@@ -48,6 +64,8 @@ struct Batch<'a> {
     /// The lock files of the models whose processes run, by job index: each lock is held for
     /// as long as its model's process runs and released after the model is logged.
     locks: HashMap<usize, std::fs::File>,
+    /// What the record of each running model will say about its inputs and options.
+    identities: HashMap<usize, Identity>,
     args: &'a BatchArgs,
 }
 
@@ -93,6 +111,7 @@ pub fn run(args: &BatchArgs, global: &GlobalArgs) -> Result<()> {
         past_peaks,
         counts: HashMap::new(),
         locks: HashMap::new(),
+        identities: HashMap::new(),
         args,
     };
     if !batch.quiet {
@@ -117,6 +136,7 @@ impl Batch<'_> {
     fn run_all(&mut self, memory_budget: u64) -> Result<()> {
         let mut queue: VecDeque<usize> = (0..self.jobs.len()).collect();
         let mut running: Vec<Running> = Vec::new();
+        let mut pending: Option<Ready> = None;
         let mut stopping = false;
         loop {
             if child::stop_signal().is_some() && !stopping {
@@ -124,18 +144,35 @@ impl Batch<'_> {
                 running.iter_mut().for_each(Running::stop);
             }
             while !stopping && running.len() < self.args.jobs {
-                let Some(&next) = queue.front() else { break };
+                let ready = match pending.take() {
+                    Some(p) => p,
+                    None => {
+                        let Some(next) = queue.pop_front() else { break };
+                        match self.prepare(next) {
+                            Ok(Some(p)) => p,
+                            Ok(None) => continue,
+                            Err(e) => {
+                                self.failed_to_start(next, &e)?;
+                                continue;
+                            }
+                        }
+                    }
+                };
                 let in_use: u64 = running.iter().map(|r| r.memory_estimate).sum();
-                let need = self.memory_estimate(next);
-                if !running.is_empty() && in_use.saturating_add(need) > memory_budget {
+                if !running.is_empty()
+                    && in_use.saturating_add(ready.memory_estimate) > memory_budget
+                {
+                    // It waits, still locked, until enough running models have finished.
+                    pending = Some(ready);
                     break;
                 }
-                queue.pop_front();
-                if let Some(r) = self.start(next, need)? {
-                    running.push(r);
+                let index = ready.index;
+                match self.spawn(ready) {
+                    Ok(r) => running.push(r),
+                    Err(e) => self.failed_to_start(index, &e)?,
                 }
             }
-            if running.is_empty() && (queue.is_empty() || stopping) {
+            if running.is_empty() && ((queue.is_empty() && pending.is_none()) || stopping) {
                 return Ok(());
             }
             let mut i = 0;
@@ -150,6 +187,14 @@ impl Batch<'_> {
             }
             std::thread::sleep(Duration::from_millis(20));
         }
+    }
+
+    /// Logs a model that could not be started (its folder, its inputs unreadable) as failed.
+    fn failed_to_start(&mut self, index: usize, error: &anyhow::Error) -> Result<()> {
+        self.locks.remove(&index);
+        let now = SystemTime::now();
+        let error = Some(format!("{error:#}"));
+        self.log(index, Status::Failed, now, Duration::ZERO, error, Figures::default())
     }
 
     /// Memory a model is expected to need: its last attempt's peak, else four times the size of
@@ -167,8 +212,8 @@ impl Batch<'_> {
         size.saturating_mul(4)
     }
 
-    /// Locks the model and either logs it `busy` or `skipped`, or starts its process.
-    fn start(&mut self, index: usize, memory_estimate: u64) -> Result<Option<Running>> {
+    /// Locks the model and either logs it `busy` or `skipped`, or returns it ready to run.
+    fn prepare(&mut self, index: usize) -> Result<Option<Ready>> {
         let job = self.jobs[index].clone();
         let dir = resume::model_dir(&self.out_dir, &job.name);
         let planned = plan::plan(&job, &self.cli_options, &dir, self.threads_per_model)?;
@@ -190,23 +235,43 @@ impl Batch<'_> {
             self.log(index, Status::Skipped, started, clock.elapsed(), None, record.figures)?;
             return Ok(None);
         }
-        resume::forget(&dir)?;
-        let log_path = dir.join(resume::RUN_LOG);
-        let mut running = child::spawn(
-            &self.exe,
-            &planned.args,
-            &log_path,
-            self.timeout,
+        // The inputs are read before the run, so that the record vouches for what the run read
+        // (a file changed meanwhile has a newer stamp, and the next run compares content).
+        let files = inputs::files(&job);
+        let stamps = inputs::stamps(&files);
+        let input_hash = inputs::content_hash(&files)
+            .with_context(|| format!("reading the inputs of {}", job.name))?;
+        let memory_estimate = self.memory_estimate(index);
+        Ok(Some(Ready {
             index,
-            self.threads_per_model,
+            lock,
+            args: planned.args,
+            identity: Identity { input_hash, inputs: stamps, options_hash: planned.options_hash },
             memory_estimate,
+        }))
+    }
+
+    /// Starts the process of a prepared model, whose lock it keeps until the model is logged.
+    fn spawn(&mut self, ready: Ready) -> Result<Running> {
+        let job = &self.jobs[ready.index];
+        let dir = resume::model_dir(&self.out_dir, &job.name);
+        resume::forget(&dir)?;
+        resume::clear_leftovers(&dir)?;
+        let running = child::spawn(
+            &self.exe,
+            &ready.args,
+            &dir.join(resume::RUN_LOG),
+            self.timeout,
+            ready.index,
+            self.threads_per_model,
+            ready.memory_estimate,
         )?;
-        running.start_time = started;
-        self.locks.insert(index, lock);
         if !self.quiet {
             eprintln!("batch: started {} ({})", job.name, job.primary_input().display());
         }
-        Ok(Some(running))
+        self.locks.insert(ready.index, ready.lock);
+        self.identities.insert(ready.index, ready.identity);
+        Ok(running)
     }
 
     /// Logs a finished process; after a success, records it so that a rerun can skip it.
@@ -220,7 +285,15 @@ impl Batch<'_> {
         } else if done.timed_out {
             let limit = self.timeout.map_or(0.0, |t| t.as_secs_f64());
             (Status::Failed, Some(format!("stopped at --model-timeout {limit} s")))
-        } else if done.stopped || matches!(done.exit, Exit::Code(130 | 143)) {
+        } else if done.stopped
+            || child::stop_signal().is_some()
+            || matches!(
+                done.exit,
+                Exit::Code(130 | 143) | Exit::Signal(libc::SIGTERM | libc::SIGINT)
+            )
+        {
+            // Slurm and Kubernetes signal every process of the job, so a model may be stopped
+            // before the batch has seen its own signal.
             (Status::Interrupted, Some("stopped by a signal; a rerun redoes it".into()))
         } else {
             let how = match done.exit {
@@ -229,31 +302,34 @@ impl Batch<'_> {
             };
             (Status::Failed, Some(message.map_or(how.clone(), |m| format!("{how}: {m}"))))
         };
-        let figures = if success {
-            summary::figures_of_report(&dir.join(plan::REPORT_FILE))
-        } else {
-            Figures::default()
+        let mut figures = Figures::default();
+        let (status, error) = match (success, self.identities.remove(&r.job)) {
+            (true, Some(identity)) => {
+                figures = summary::figures_of_report(&dir.join(plan::REPORT_FILE));
+                let record = resume::Record {
+                    version: VERSION.into(),
+                    commit: COMMIT.into(),
+                    options_hash: identity.options_hash,
+                    input_hash: identity.input_hash,
+                    inputs: identity.inputs,
+                    outputs: resume::output_files(&dir).unwrap_or_default(),
+                    figures: figures.clone(),
+                };
+                match resume::write_record(&dir, &record) {
+                    Ok(()) => (status, error),
+                    Err(e) => (Status::Failed, Some(format!("{e:#}"))),
+                }
+            }
+            _ => (status, error),
         };
-        if success {
-            let files = inputs::files(&job);
-            let planned = plan::plan(&job, &self.cli_options, &dir, r.threads)?;
-            let record = resume::Record {
-                version: VERSION.into(),
-                commit: COMMIT.into(),
-                options_hash: planned.options_hash,
-                input_hash: inputs::content_hash(&files)
-                    .with_context(|| format!("hashing the inputs of {}", job.name))?,
-                inputs: inputs::stamps(&files),
-                outputs: resume::output_files(&dir)?,
-                figures: figures.clone(),
-            };
-            resume::write_record(&dir, &record)?;
-        }
         let mut entry = self.entry(r.job, status, r.start_time, done.wall, error, figures);
         entry.peak_rss_bytes = Some(done.peak_rss_bytes);
         entry.threads = Some(r.threads);
         entry.warnings = Some(warnings);
         self.write(&entry)?;
+        if let Err(e) = resume::clear_leftovers(&dir) {
+            tracing::warn!("{}: {e:#}", job.name);
+        }
         self.locks.remove(&r.job);
         Ok(())
     }
@@ -307,7 +383,9 @@ impl Batch<'_> {
     }
 
     fn write(&mut self, entry: &Entry) -> Result<()> {
-        log::append(&self.out_dir, entry)?;
+        // Outcomes of runs are synced; a lost `skipped` or `busy` line costs nothing.
+        let sync = !matches!(entry.status, Status::Skipped | Status::Busy);
+        log::append(&self.out_dir, entry, sync)?;
         *self.counts.entry(entry.status).or_default() += 1;
         if !self.quiet && !matches!(entry.status, Status::Skipped) {
             let error = entry.error.as_deref().map(|e| format!(": {e}")).unwrap_or_default();

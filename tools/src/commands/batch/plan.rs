@@ -128,6 +128,12 @@ pub fn plan(job: &Job, cli_options: &Options, dir: &Path, threads: usize) -> Res
             hasher.update(&bytes);
         }
     }
+    // Temporary tiles go to a folder of their own that the batch removes after each attempt, so
+    // a killed run leaves nothing behind (unless the options name a work folder).
+    if matches!(job.kind, Kind::Defrag { .. }) && !options.contains_key("work-dir") {
+        let work = dir.join(resume::WORK_DIR).to_string_lossy().into_owned();
+        args.extend(["--work-dir".into(), work]);
+    }
     Ok(Planned { args, options_hash: hasher.finalize().to_hex().to_string() })
 }
 

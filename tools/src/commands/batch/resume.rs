@@ -16,6 +16,8 @@ pub const RECORD_FILE: &str = ".batch-record.json";
 pub const LOCK_FILE: &str = ".batch.lock";
 /// The model process's stderr, rewritten at each attempt; not one of the outputs.
 pub const RUN_LOG: &str = "run.log";
+/// The model process's folder for temporary tile files, removed after each attempt.
+pub const WORK_DIR: &str = ".work";
 
 /// What a finished model was made from and what it left.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -126,6 +128,25 @@ pub fn write_record(dir: &Path, record: &Record) -> Result<()> {
     let path = dir.join(RECORD_FILE);
     scanatlas_core::atomic::write_atomic(&path, &[], |w| w.write_all(&json))
         .with_context(|| format!("writing {}", path.display()))
+}
+
+/// Removes what a killed run of the model may have left: its work folder and the temporary
+/// files of unfinished atomic writes (`.NAME.XXXXXX.tmp`). Only called with the model's lock
+/// held, so no other batch process is writing there.
+pub fn clear_leftovers(dir: &Path) -> Result<()> {
+    let work = dir.join(WORK_DIR);
+    if work.exists() {
+        std::fs::remove_dir_all(&work).with_context(|| format!("removing {}", work.display()))?;
+    }
+    for entry in std::fs::read_dir(dir).with_context(|| format!("listing {}", dir.display()))? {
+        let entry = entry?;
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if name.starts_with('.') && name.ends_with(".tmp") && entry.file_type()?.is_file() {
+            std::fs::remove_file(entry.path())
+                .with_context(|| format!("removing {}", entry.path().display()))?;
+        }
+    }
+    Ok(())
 }
 
 /// Removes the record before a model is redone, so that a run cut short never leaves an old

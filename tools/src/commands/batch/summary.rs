@@ -93,7 +93,7 @@ pub fn summarize(entries: &[Entry]) -> Summary {
             let figures = list
                 .iter()
                 .rev()
-                .find(|e| e.figures != Figures::default())
+                .find(|e| !e.figures.is_empty())
                 .filter(|_| matches!(last.status, Status::Ok | Status::Skipped))
                 .map(|e| e.figures.clone())
                 .unwrap_or_default();
@@ -133,7 +133,10 @@ pub fn table(s: &Summary) -> String {
         "model", "status", "runs", "wall s", "peak MiB", "charts in>out", "preserved"
     );
     for r in &s.models {
-        let charts = format!("{}>{}", opt(r.figures.charts_in), opt(r.figures.charts_out));
+        let charts = match (r.figures.charts_in, r.figures.charts_out) {
+            (None, None) => "-".to_string(),
+            (a, b) => format!("{}>{}", opt(a), opt(b)),
+        };
         out.push_str(&format!(
             "{:<32} {:<11} {:>4} {:>8} {:>8} {:>15} {:>9}  {}\n",
             r.name,
