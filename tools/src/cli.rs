@@ -28,6 +28,14 @@ pub struct GlobalArgs {
     /// Worker threads (default: all cores). Results never depend on it.
     #[arg(long, global = true, value_name = "N")]
     pub threads: Option<usize>,
+    /// Fail (exit 1) on any warning, before any work when the input has one: for jobs that must
+    /// never accept a degraded result.
+    #[arg(long, global = true)]
+    pub strict: bool,
+    /// Refuse texture, buffer and photo references outside the folder of the model (or of the
+    /// photos): for servers that process uploaded models.
+    #[arg(long, global = true)]
+    pub confine: bool,
 }
 
 #[derive(Debug, Subcommand)]

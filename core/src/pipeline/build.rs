@@ -71,6 +71,8 @@ pub struct BuildConfig {
     pub texture_format: ImageFormat,
     /// Folder of temporary tile files; `None` = beside the output.
     pub work_dir: Option<PathBuf>,
+    /// Refuse a mesh with warnings before any work (`--strict`; see `warnings`).
+    pub strict: bool,
 }
 
 impl Default for BuildConfig {
@@ -92,6 +94,7 @@ impl Default for BuildConfig {
             max_rounds: 12,
             texture_format: ImageFormat::Png,
             work_dir: None,
+            strict: false,
         }
     }
 }
@@ -169,6 +172,8 @@ pub struct BuildReport {
     pub pack: Option<PackReport>,
     pub resample: Option<ResampleReport>,
     pub times: BuildTimes,
+    /// What the mesh reader found that degrades the mesh (see `warnings`).
+    pub warnings: Vec<crate::warnings::Warning>,
 }
 
 /// Figures of the frequency analysis and splitting (paper §4).
@@ -241,6 +246,8 @@ pub fn build(
     let mut times = BuildTimes::default();
     let t = Instant::now();
     let model = crate::io::read_model(mesh)?;
+    let warnings = crate::warnings::geometry_only(&model.warnings);
+    crate::warnings::check_strict(cfg.strict, &warnings)?;
     let rig = read_rig(cameras, images).map_err(berr)?;
     if rig.cameras.is_empty() {
         return Err(berr(BuildError::Invalid(format!(
@@ -253,6 +260,7 @@ pub fn build(
     let mut photo_paths = Vec::with_capacity(rig.cameras.len());
     for (k, c) in rig.cameras.iter().enumerate() {
         let p = images.join(&c.image);
+        crate::io::check_confined(cameras, images, &p)?;
         if !p.is_file() {
             return Err(berr(BuildError::MissingImage {
                 name: c.image.clone(),
@@ -737,6 +745,7 @@ pub fn build(
         pack: Some(packed.report.clone()),
         resample: Some(res.report.clone()),
         times,
+        warnings,
     })
 }
 

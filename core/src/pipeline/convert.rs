@@ -11,6 +11,7 @@ use crate::io::WriteOptions;
 use crate::model::ImageSource;
 use crate::texture::encode::{EncodeOptions, write_image};
 use crate::texture::{ImageFormat, TileStore, decode};
+use crate::warnings::{Warning, check_strict};
 
 /// Options of a conversion.
 #[derive(Clone, Debug)]
@@ -20,6 +21,8 @@ pub struct ConvertOptions {
     pub jpeg_quality: u8,
     /// Folder for tile files; `None` = the output's folder.
     pub work_dir: Option<PathBuf>,
+    /// Refuse to convert a model that has warnings (see `warnings`).
+    pub strict: bool,
 }
 
 /// What a conversion did.
@@ -30,6 +33,8 @@ pub struct ConvertReport {
     pub read_seconds: f64,
     pub textures_seconds: f64,
     pub write_seconds: f64,
+    /// What the reader found that degrades the model (see `warnings`).
+    pub warnings: Vec<Warning>,
 }
 
 /// The file name of output sheet `k` of a model written to `output`.
@@ -67,6 +72,8 @@ pub fn convert(
     let t0 = Instant::now();
     let mut model = super::load_model(input)?;
     let read_seconds = t0.elapsed().as_secs_f64();
+    check_strict(opts.strict, &model.warnings)?;
+    crate::io::check_output(&model, output)?;
 
     let out_dir = match output.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
@@ -111,5 +118,6 @@ pub fn convert(
         read_seconds,
         textures_seconds,
         write_seconds: t2.elapsed().as_secs_f64(),
+        warnings: model.warnings,
     })
 }

@@ -59,6 +59,8 @@ pub struct DefragConfig {
     /// is checked for folds, distortion and overlaps whatever it is.
     pub untangle_solver: String,
     pub untangle_solver_params: Params,
+    /// Refuse a model with warnings before any work (`--strict`; see `warnings`).
+    pub strict: bool,
 }
 
 impl Default for DefragConfig {
@@ -80,6 +82,7 @@ impl Default for DefragConfig {
             untangle: Some(UntangleOptions::default()),
             untangle_solver: "slim".into(),
             untangle_solver_params: Params::new(),
+            strict: false,
         }
     }
 }
@@ -154,6 +157,8 @@ pub struct DefragReport {
     pub input_stats: AtlasStats,
     pub output_stats: AtlasStats,
     pub times: StageTimes,
+    /// What the reader found that degrades the input or the written output (see `warnings`).
+    pub warnings: Vec<crate::warnings::Warning>,
 }
 
 /// Whether the overlap raster of [`atlas_stats`] is cheap enough to run by default on a model
@@ -216,6 +221,7 @@ pub fn defrag_with_progress(
     progress(DefragStage::Load);
     let t = Instant::now();
     let model = std::sync::Arc::new(super::load_model(input)?);
+    crate::warnings::check_strict(cfg.strict, &model.warnings)?;
     times.load_ms = ms(t);
     let in_sizes = super::sheet_sizes(&model);
     // The input's figures for the report are computed on idle CPU time (see `background`).
@@ -394,6 +400,7 @@ pub fn defrag_with_progress(
     let written = super::load_model(output)?;
     let output_stats = atlas_stats(&written, &super::sheet_sizes(&written), &stats_opts);
     let (input_stats, _) = input_stats.finish();
+    let warnings = [&model.warnings[..], &written.warnings[..]].concat();
     times.metrics_ms = ms(t);
     times.total_ms = ms(t_all);
     Ok(DefragReport {
@@ -415,6 +422,7 @@ pub fn defrag_with_progress(
         input_stats,
         output_stats,
         times,
+        warnings,
     })
 }
 

@@ -51,6 +51,8 @@ pub enum PipelineError {
     Defrag(#[from] crate::defrag::DefragError),
     #[error("packing: {0}")]
     Pack(#[from] crate::pack::PackError),
+    #[error(transparent)]
+    Strict(#[from] crate::warnings::StrictError),
 }
 
 /// Reads a model and fills in every sheet's size from its image header (no pixels decoded).

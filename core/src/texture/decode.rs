@@ -34,15 +34,8 @@ fn open_detect(src: &ImageSource) -> Result<(Opened<'_>, ImageFormat), TextureEr
                 Some(kind) => {
                     format!("{kind} images are not supported (use PNG, JPEG, TIFF or OpenEXR)")
                 }
-                None => format!(
-                    "not a PNG, JPEG, TIFF or OpenEXR file (first bytes: {})",
-                    op.head
-                        .iter()
-                        .take(8)
-                        .map(|b| format!("{b:02x}"))
-                        .collect::<Vec<_>>()
-                        .join(" ")
-                ),
+                // The file's bytes are never quoted: a reference may point at a private file.
+                None => "not a PNG, JPEG, TIFF or OpenEXR file".to_string(),
             };
             Err(TextureError::Unsupported { image: op.name, msg })
         }

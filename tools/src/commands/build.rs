@@ -9,7 +9,7 @@ use scanatlas_core::plugin::Registry;
 use crate::cli::BuildArgs;
 use crate::progress::Stage;
 
-pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
+pub fn run(args: &BuildArgs, quiet: bool, strict: bool) -> Result<()> {
     let mut registry = Registry::default();
     scanatlas_plugins::register_builtin(&mut registry);
     let cfg = BuildConfig {
@@ -24,11 +24,13 @@ pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
             camera_weight: args.seam_camera_weight,
             ..SeamPlacementOptions::default()
         },
+        strict,
         ..BuildConfig::default()
     };
     let stage = Stage::spinner("building the atlas", quiet);
     let report = build(&args.mesh, &args.cameras, &args.images, &args.output, &registry, &cfg)?;
     stage.finish();
+    tracing::info!("build finished in {:.1} s", report.times.total_ms / 1e3);
     if let Some(p) = &args.report {
         let json = serde_json::to_string_pretty(&report)?;
         scanatlas_core::atomic::write_atomic::<std::io::Error, _>(p, &[], |w| {
@@ -36,6 +38,7 @@ pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
         })
         .with_context(|| format!("writing {}", p.display()))?;
     }
+    super::report_warnings(&report.warnings, strict)?;
     if !quiet {
         if let Some(sp) = &report.seam_placement {
             eprintln!(

@@ -7,7 +7,7 @@ use scanatlas_core::texture::ImageFormat;
 use crate::cli::{ConvertArgs, TextureFormatArg};
 use crate::progress::Stage;
 
-pub fn run(args: &ConvertArgs, quiet: bool) -> Result<()> {
+pub fn run(args: &ConvertArgs, quiet: bool, strict: bool) -> Result<()> {
     let opts = ConvertOptions {
         texture_format: args.texture_format.map(|f| match f {
             TextureFormatArg::Png => ImageFormat::Png,
@@ -17,10 +17,12 @@ pub fn run(args: &ConvertArgs, quiet: bool) -> Result<()> {
         }),
         jpeg_quality: args.jpeg_quality,
         work_dir: args.work_dir.clone(),
+        strict,
     };
     let stage = Stage::spinner("converting", quiet);
     let report = convert(&args.input, &args.output, &opts)?;
     stage.finish();
+    super::report_warnings(&report.warnings, strict)?;
     if !quiet {
         eprintln!(
             "wrote {} ({} faces, {} sheets): read {:.2} s, textures {:.2} s, write {:.2} s",

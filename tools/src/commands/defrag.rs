@@ -39,6 +39,7 @@ pub fn run_pipeline(
         if let Some(old) = stage.take() {
             old.finish();
         }
+        tracing::info!("stage: {}", s.label());
         stage = Some(Stage::spinner(s.label(), quiet));
     });
     if let Some(old) = stage.take() {
@@ -47,10 +48,12 @@ pub fn run_pipeline(
     Ok(report?)
 }
 
-pub fn run(args: &DefragArgs, quiet: bool) -> Result<()> {
+pub fn run(args: &DefragArgs, quiet: bool, strict: bool) -> Result<()> {
     // Every name and parameter is checked (exit status 2) before the model is read.
-    let cfg = super::config::defrag_config(args, &builtin_registry())?;
+    let mut cfg = super::config::defrag_config(args, &builtin_registry())?;
+    cfg.strict = strict;
     let report = run_pipeline(&args.input, &args.output, &cfg, quiet)?;
+    tracing::info!("defrag finished in {:.1} s", report.times.total_ms / 1e3);
     if let Some(path) = &args.report {
         let json = serde_json::to_vec_pretty(&report)?;
         scanatlas_core::atomic::write_atomic(path, std::slice::from_ref(&args.input), |w| {
@@ -58,6 +61,7 @@ pub fn run(args: &DefragArgs, quiet: bool) -> Result<()> {
         })
         .with_context(|| format!("writing the report {}", path.display()))?;
     }
+    super::report_warnings(&report.warnings, strict)?;
     if !quiet {
         let m = &report.merge;
         eprintln!(
