@@ -33,6 +33,14 @@ pub struct GlobalArgs {
     #[arg(long, global = true, value_name = "N",
           value_parser = clap::value_parser!(u16).range(1..=MAX_THREADS as i64))]
     pub threads: Option<u16>,
+    /// Fail (exit 1) on any warning, before any work when the input has one: for jobs that must
+    /// never accept a degraded result.
+    #[arg(long, global = true)]
+    pub strict: bool,
+    /// Refuse texture, buffer and photo references outside the folder of the model (or of the
+    /// photos): for servers that process uploaded models.
+    #[arg(long, global = true)]
+    pub confine: bool,
 }
 
 #[derive(Debug, Subcommand)]

@@ -34,6 +34,10 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
         Err(err) => {
+            // Under --strict the warnings are the reason for the failure: all of them are shown.
+            for w in strict_warnings(&err) {
+                eprintln!("scanatlas: warning: {w}");
+            }
             // One line per cause, outermost first, so cron logs stay readable.
             eprintln!("scanatlas: error: {err}");
             for cause in err.chain().skip(1) {
@@ -60,6 +64,16 @@ fn catch_signals() -> std::io::Result<()> {
         }?;
     }
     Ok(())
+}
+
+/// The warnings that made a `--strict` run fail before any work (warnings met after the run
+/// are printed by the command itself).
+fn strict_warnings(err: &anyhow::Error) -> &[scanatlas_core::warnings::Warning] {
+    use scanatlas_core::pipeline::PipelineError;
+    match err.downcast_ref::<PipelineError>() {
+        Some(PipelineError::Strict(s)) => &s.0,
+        _ => &[],
+    }
 }
 
 fn init_logging(verbose: u8, quiet: bool) {

@@ -62,6 +62,8 @@ pub struct DefragConfig {
     /// is checked for folds, distortion and overlaps whatever it is.
     pub untangle_solver: String,
     pub untangle_solver_params: Params,
+    /// Refuse a model with warnings before any work (`--strict`; see `warnings`).
+    pub strict: bool,
 }
 
 impl Default for DefragConfig {
@@ -85,6 +87,7 @@ impl Default for DefragConfig {
             untangle: Some(UntangleOptions::default()),
             untangle_solver: "slim".into(),
             untangle_solver_params: Params::new(),
+            strict: false,
         }
     }
 }
@@ -159,6 +162,8 @@ pub struct DefragReport {
     pub input_stats: AtlasStats,
     pub output_stats: AtlasStats,
     pub times: StageTimes,
+    /// What the reader found that degrades the input or the written output (see `warnings`).
+    pub warnings: Vec<crate::warnings::Warning>,
 }
 
 /// Whether the overlap raster of [`atlas_stats`] is cheap enough to run by default on a model
@@ -249,10 +254,14 @@ impl Emitted {
     }
 }
 
-/// The atlas figures of the written output, read back from the destination.
-fn output_stats(output: &Path, opts: &StatsOptions) -> Result<AtlasStats, PipelineError> {
+/// The atlas figures of the written output, read back from the destination, with what its
+/// reader noted about it.
+fn output_stats(
+    output: &Path,
+    opts: &StatsOptions,
+) -> Result<(AtlasStats, Vec<crate::warnings::Warning>), PipelineError> {
     let written = super::load_model(output)?;
-    Ok(atlas_stats(&written, &super::sheet_sizes(&written), opts))
+    Ok((atlas_stats(&written, &super::sheet_sizes(&written), opts), written.warnings))
 }
 
 /// Runs the pipeline on `input`, writing `output` (and its sheets `<stem>_<k>.<ext>` beside it),
@@ -283,6 +292,7 @@ pub fn defrag_with_progress(
     progress(DefragStage::Load);
     let t = Instant::now();
     let model = Arc::new(super::load_model(input)?);
+    crate::warnings::check_strict(cfg.strict, &model.warnings)?;
     check_pack_options(&cfg.pack, &model)?;
     let ctx = RunContext::open(&paths, Some(&model))?;
     let mut loaded = start_background(model, cfg, &ctx)?;
@@ -331,8 +341,9 @@ pub fn defrag_with_progress(
 
     progress(DefragStage::Metrics);
     let t = Instant::now();
-    let output_stats = output_stats(output, &stats_opts)?;
+    let (output_stats, output_warnings) = output_stats(output, &stats_opts)?;
     let (input_stats, _) = input_stats.finish();
+    let warnings = [&model.warnings[..], &output_warnings[..]].concat();
     times.metrics_ms = ms(t);
     times.total_ms = ms(t_all);
     Ok(DefragReport {
@@ -354,6 +365,7 @@ pub fn defrag_with_progress(
         input_stats,
         output_stats,
         times,
+        warnings,
     })
 }
 

@@ -61,6 +61,8 @@ pub enum PipelineError {
     /// Cameras or photos of a `build` that cannot be read or do not fit together.
     #[error(transparent)]
     Build(#[from] crate::photo_atlas::BuildError),
+    #[error(transparent)]
+    Strict(#[from] crate::warnings::StrictError),
 }
 
 /// Reads a model and fills in every sheet's size from its image header (no pixels decoded).

@@ -346,6 +346,7 @@ pub fn generate(params: &SynthParams, work_dir: &Path) -> Result<SynthOutput, Sy
             params.cameras,
             ch.len()
         )],
+        warnings: Vec::new(),
     };
     let t_charts = Instant::now();
 

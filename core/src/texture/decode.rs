@@ -36,15 +36,8 @@ fn open_detect(src: &ImageSource) -> Result<(Opened<'_>, ImageFormat), TextureEr
                         "{kind} images are not supported (use PNG, JPEG, TIFF, OpenEXR or WebP)"
                     )
                 }
-                None => format!(
-                    "not a PNG, JPEG, TIFF, OpenEXR or WebP file (first bytes: {})",
-                    op.head
-                        .iter()
-                        .take(8)
-                        .map(|b| format!("{b:02x}"))
-                        .collect::<Vec<_>>()
-                        .join(" ")
-                ),
+                // The file's bytes are never quoted: a reference may point at a private file.
+                None => "not a PNG, JPEG, TIFF, OpenEXR or WebP file".to_string(),
             };
             Err(TextureError::Unsupported { image: op.name, msg })
         }

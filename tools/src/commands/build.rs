@@ -29,11 +29,12 @@ pub fn build_config(args: &BuildArgs) -> BuildConfig {
     }
 }
 
-pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
+pub fn run(args: &BuildArgs, quiet: bool, strict: bool) -> Result<()> {
     let mut registry = Registry::default();
     scanatlas_plugins::register_builtin(&mut registry);
     check_usage(args, &registry)?;
-    let cfg = build_config(args);
+    let mut cfg = build_config(args);
+    cfg.strict = strict;
     let mut stage: Option<Stage> = None;
     let (mesh, cameras, images) = (&args.mesh, &args.cameras, &args.images);
     let report =
@@ -47,11 +48,13 @@ pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
         old.finish();
     }
     let report = report.map_err(|e| super::defrag::usage_or_failure(e.into()))?;
+    tracing::info!("build finished in {:.1} s", report.times.total_ms / 1e3);
     if let Some(p) = &args.report {
         let json = serde_json::to_string_pretty(&report)?;
         let protect = [args.mesh.clone(), args.cameras.clone(), args.output.clone()];
         super::defrag::write_report(p, json.as_bytes(), &protect)?;
     }
+    super::report_warnings(&report.warnings, strict)?;
     if !quiet {
         if let Some(sp) = &report.seam_placement {
             eprintln!(

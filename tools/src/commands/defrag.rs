@@ -70,6 +70,7 @@ pub fn run_pipeline(
         if let Some(old) = stage.take() {
             old.finish();
         }
+        tracing::info!("stage: {}", s.label());
         stage = Some(Stage::spinner(s.label(), quiet));
     });
     if let Some(old) = stage.take() {
@@ -78,10 +79,11 @@ pub fn run_pipeline(
     Ok(report?)
 }
 
-pub fn run(args: &DefragArgs, quiet: bool) -> Result<()> {
+pub fn run(args: &DefragArgs, quiet: bool, strict: bool) -> Result<()> {
     // Every name and parameter is checked (exit status 2) before the model is read; the output
     // and report paths are checked by the pipeline before any work.
-    let cfg = super::config::defrag_config(args, &builtin_registry())?;
+    let mut cfg = super::config::defrag_config(args, &builtin_registry())?;
+    cfg.strict = strict;
     let paths = RunPaths {
         inputs: std::slice::from_ref(&args.input),
         output: &args.output,
@@ -106,6 +108,8 @@ pub fn run(args: &DefragArgs, quiet: bool) -> Result<()> {
         write_report(path, &json, &[args.input.clone(), args.output.clone()])?;
     }
     let report = result?;
+    tracing::info!("defrag finished in {:.1} s", report.times.total_ms / 1e3);
+    super::report_warnings(&report.warnings, strict)?;
     if !quiet {
         let m = &report.merge;
         eprintln!(

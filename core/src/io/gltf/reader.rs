@@ -14,6 +14,7 @@ use crate::index::{MaterialId, NormalId, SheetId, UvId, VertexId};
 use crate::io::IoError;
 use crate::model::{Face, ImageSource, Material, Model, Origin, Sheet};
 use crate::texture::coords::flip_v;
+use crate::warnings::{Warning, WarningCode};
 
 /// The affine map applied to glTF UVs of one material's base-colour texture
 /// (`KHR_texture_transform`), and the texture-coordinate set it reads.
@@ -142,8 +143,11 @@ pub(super) fn read(path: &Path) -> Result<Model, IoError> {
     if let Some(req) = json.get("extensionsRequired").and_then(Value::as_array) {
         for e in req.iter().filter_map(Value::as_str) {
             if !super::refs::is_known_extension(e) {
-                r.model.notes.push(format!(
-                    "required extension {e} is not understood; it was ignored while reading"
+                r.model.warnings.push(Warning::new(
+                    WarningCode::UnsupportedExtension,
+                    format!(
+                        "required extension {e} is not understood; it was ignored while reading"
+                    ),
                 ));
             }
         }
@@ -242,8 +246,9 @@ impl<'a> Reader<'a> {
                 }
             }
         }
-        self.model.notes.push(format!(
-            "{ctx} has no image source; material {material} is treated as untextured"
+        self.model.warnings.push(Warning::new(
+            WarningCode::MissingTexture,
+            format!("{ctx} has no image source; material {material} is treated as untextured"),
         ));
         Ok(None)
     }
@@ -312,9 +317,10 @@ impl<'a> Reader<'a> {
                     .and_then(Value::as_object)
                     .ok_or_else(|| self.invalid(format!("{ctx}: missing attributes")))?;
                 if !attrs.contains_key("POSITION") {
-                    self.model
-                        .notes
-                        .push(format!("{ctx} has no POSITION attribute and was skipped"));
+                    self.model.warnings.push(Warning::new(
+                        WarningCode::ContentSkipped,
+                        format!("{ctx} has no POSITION attribute and was skipped"),
+                    ));
                     continue;
                 }
                 let material = opt_usize(prim, "material", &ctx).map_err(|e| self.invalid(e))?;
@@ -363,7 +369,10 @@ impl<'a> Reader<'a> {
             }
         }
         if skipped > 0 {
-            self.model.notes.push(format!("{skipped} point or line primitive(s) skipped"));
+            self.model.warnings.push(Warning::new(
+                WarningCode::ContentSkipped,
+                format!("{skipped} point or line primitive(s) skipped"),
+            ));
         }
         Ok(())
     }
@@ -537,8 +546,11 @@ impl<'a> Reader<'a> {
                 });
             })?;
         if leftover > 0 {
-            self.model.notes.push(format!(
-                "{ctx}: {leftover} trailing index(es) that do not form a triangle were ignored"
+            self.model.warnings.push(Warning::new(
+                WarningCode::PartialTriangle,
+                format!(
+                    "{ctx}: {leftover} trailing index(es) that do not form a triangle were ignored"
+                ),
             ));
         }
         Ok(())

@@ -2,7 +2,6 @@
 //! checked against the file size), the unsupported-compression checks, and the buffers
 //! (memory-mapped external files, `data:` URIs or the GLB BIN chunk).
 
-use std::fs::File;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -58,7 +57,7 @@ pub(super) struct Document {
 /// Maps a whole file read-only. Empty files are returned as an empty owned buffer because
 /// mapping zero bytes is an error on some systems.
 fn map_file(path: &Path) -> Result<Backing, std::io::Error> {
-    let file = File::open(path)?;
+    let file = crate::io::paths::open_regular(path)?;
     let len = file.metadata()?.len();
     if len == 0 {
         return Ok(Backing::Owned(Vec::new()));
@@ -290,6 +289,7 @@ pub(super) fn load_buffers(
                     let rel = uri::percent_decode(u)
                         .map_err(|m| IoError::invalid(path, format!("buffer {i}: {m}")))?;
                     let file = dir.join(&rel);
+                    crate::io::check_confined(path, &dir, &file)?;
                     let backing = map_file(&file).map_err(|e| {
                         IoError::invalid(
                             path,

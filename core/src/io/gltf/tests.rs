@@ -315,7 +315,7 @@ fn non_indexed_strip_and_fan() {
         ]
     );
     assert_eq!(m.positions.len(), 5);
-    assert!(m.notes.iter().any(|n| n.contains("2 trailing index")), "{:?}", m.notes);
+    assert!(m.warnings.iter().any(|n| n.message.contains("2 trailing index")), "{:?}", m.warnings);
     assert!(m.faces.iter().all(|f| f.uv.is_none()));
     assert_eq!(m.uvs.len(), m.positions.len(), "placeholder UVs keep ids equal");
 }
@@ -353,7 +353,7 @@ fn missing_texcoord_gives_faces_without_uv_and_lines_are_skipped() {
     assert_eq!(m.faces.len(), 3);
     assert_eq!(m.faces[2].uv, None);
     assert_eq!(m.uvs.len(), 7);
-    assert!(m.notes.iter().any(|n| n.contains("1 point or line")), "{:?}", m.notes);
+    assert!(m.warnings.iter().any(|n| n.message.contains("1 point or line")), "{:?}", m.warnings);
 }
 
 // ---------- bad input ----------

@@ -58,6 +58,8 @@ pub struct BuildConfig {
     pub texture_format: ImageFormat,
     /// Folder of temporary tile files; `None` = beside the output.
     pub work_dir: Option<PathBuf>,
+    /// Refuse a mesh with warnings before any work (`--strict`; see `warnings`).
+    pub strict: bool,
 }
 
 impl Default for BuildConfig {
@@ -79,6 +81,7 @@ impl Default for BuildConfig {
             max_rounds: 12,
             texture_format: ImageFormat::Png,
             work_dir: None,
+            strict: false,
         }
     }
 }
@@ -156,6 +159,8 @@ pub struct BuildReport {
     pub pack: Option<PackReport>,
     pub resample: Option<ResampleReport>,
     pub times: BuildTimes,
+    /// What the mesh reader found that degrades the mesh (see `warnings`).
+    pub warnings: Vec<crate::warnings::Warning>,
 }
 
 /// The stages of a build run, in order, for progress display.
@@ -230,12 +235,13 @@ pub fn build_with_progress(
     let mut clock = Clock { progress, t: Instant::now() };
 
     clock.start(BuildStage::Load);
-    let loaded = stages::load(mesh, cameras, images)?;
+    let loaded = stages::load(mesh, cameras, images, cfg.strict)?;
     times.load_ms = clock.lap();
     clock.start(BuildStage::Visibility);
     let vis = stages::visibility(&loaded, cfg);
     times.visibility_ms = clock.lap();
     clock.start(BuildStage::Partition);
+    let warnings = loaded.warnings.clone();
     let scene = stages::Scene::new(loaded, vis);
     let cost = stages::camera_cost(&scene, cfg);
     let mut charts = stages::partition(&scene, &cost, cfg);
@@ -292,6 +298,7 @@ pub fn build_with_progress(
         frequency: freq,
         exposure: expo,
         seam_placement: placed,
+        warnings,
     };
     Ok(report::report(&scene, [mesh, cameras, output], cfg, run, times))
 }

@@ -23,6 +23,7 @@ pub(super) struct RunFigures<'a> {
     pub frequency: Option<FrequencyReport>,
     pub exposure: Option<Exposure>,
     pub seam_placement: Option<SeamPlacementReport>,
+    pub warnings: Vec<crate::warnings::Warning>,
 }
 
 /// The report of a run on `[mesh, cameras, output]`.
@@ -85,5 +86,6 @@ pub(super) fn report(
         pack: Some(packed.report.clone()),
         resample: Some(textured.output.report.clone()),
         times,
+        warnings: run.warnings,
     }
 }

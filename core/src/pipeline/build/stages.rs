@@ -51,30 +51,40 @@ pub(super) struct Loaded {
     pub tris: Vec<[u32; 3]>,
     pub rig: Rig,
     pub photo_paths: Vec<PathBuf>,
+    /// What the mesh reader found that degrades the mesh.
+    pub warnings: Vec<crate::warnings::Warning>,
 }
 
 /// Reads the mesh and the cameras and checks that every photo exists at its camera's size.
-pub(super) fn load(mesh: &Path, cameras: &Path, images: &Path) -> Result<Loaded, PipelineError> {
+pub(super) fn load(
+    mesh: &Path,
+    cameras: &Path,
+    images: &Path,
+    strict: bool,
+) -> Result<Loaded, PipelineError> {
     let model = crate::io::read_model(mesh)?;
+    let warnings = crate::warnings::geometry_only(&model.warnings);
+    crate::warnings::check_strict(strict, &warnings)?;
     let rig = read_rig(cameras, images)?;
     if rig.cameras.is_empty() {
         let msg = format!("{}: no registered camera", cameras.display());
         return Err(BuildError::Invalid(msg).into());
     }
-    let photo_paths = check_photos(&rig, images)?;
+    let photo_paths = check_photos(&rig, cameras, images)?;
     let tris: Vec<[u32; 3]> = model.faces.iter().map(|f| f.v.map(|v| v.0)).collect();
     if tris.is_empty() {
         return Err(PipelineError::Usage(format!("{}: the mesh has no faces", mesh.display())));
     }
-    Ok(Loaded { mesh: mesh.to_path_buf(), model, tris, rig, photo_paths })
+    Ok(Loaded { mesh: mesh.to_path_buf(), model, tris, rig, photo_paths, warnings })
 }
 
 /// The path of every camera's photo. Every photo must exist and match its calibration's size:
 /// a wrong folder or a resized photo would otherwise texture silently wrong.
-fn check_photos(rig: &Rig, images: &Path) -> Result<Vec<PathBuf>, PipelineError> {
+fn check_photos(rig: &Rig, cameras: &Path, images: &Path) -> Result<Vec<PathBuf>, PipelineError> {
     let mut photo_paths = Vec::with_capacity(rig.cameras.len());
     for (k, c) in rig.cameras.iter().enumerate() {
         let p = images.join(&c.image);
+        crate::io::check_confined(cameras, images, &p)?;
         if !p.is_file() {
             let dir = images.to_path_buf();
             return Err(BuildError::MissingImage { name: c.image.clone(), camera: k, dir }.into());
@@ -113,7 +123,7 @@ pub(super) struct Scene {
 
 impl Scene {
     pub fn new(loaded: Loaded, vis: Visibility) -> Self {
-        let Loaded { mesh, model, tris, rig, photo_paths } = loaded;
+        let Loaded { mesh, model, tris, rig, photo_paths, .. } = loaded;
         let geom = FaceGeom::new(&model.positions, &tris);
         let adj = face_adjacency(&tris);
         Self { mesh, model, tris, rig, photo_paths, vis, geom, adj }

@@ -75,7 +75,7 @@ pub(super) fn open(src: &ImageSource) -> Result<Opened<'_>, TextureError> {
     match src {
         ImageSource::File(path) => {
             let file_err = |e| TextureError::File { path: path.clone(), source: e };
-            let file = File::open(path).map_err(file_err)?;
+            let file = crate::io::paths::open_regular(path).map_err(file_err)?;
             let len = file.metadata().map_err(file_err)?.len();
             let mut input = BufReader::with_capacity(READ_BUFFER, file);
             let head = input.fill_buf().map_err(file_err)?;
