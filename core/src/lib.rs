@@ -15,6 +15,7 @@ pub mod model;
 pub mod pack;
 pub mod pipeline;
 pub mod plugin;
+pub mod report;
 pub mod synth;
 pub mod texture;
 pub mod topology;

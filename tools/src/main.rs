@@ -12,6 +12,7 @@ use clap::Parser;
 fn main() -> ExitCode {
     let args = cli::Cli::parse();
     init_logging(args.global.verbose, args.global.quiet);
+    progress::init(args.global.quiet, args.global.progress == cli::ProgressArg::Json);
     if let Some(n) = args.global.threads
         && let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(n.max(1)).build_global()
     {

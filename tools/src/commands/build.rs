@@ -36,6 +36,11 @@ pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
         })
         .with_context(|| format!("writing {}", p.display()))?;
     }
+    if let Some(dir) = &args.report_dir {
+        let run = serde_json::to_value(&report)?;
+        let jump = (report.seam_jump_before, report.seam_jump_after);
+        super::report::after_build(dir, &args.output, &run, jump, &args.report_pictures, quiet)?;
+    }
     if !quiet {
         if let Some(sp) = &report.seam_placement {
             eprintln!(

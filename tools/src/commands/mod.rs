@@ -6,6 +6,7 @@ mod convert;
 mod defrag;
 mod demo;
 mod plugins;
+mod report;
 mod rig_score;
 mod stats;
 mod synth;
@@ -40,5 +41,6 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Build(a) => build::run(&a, quiet),
         Command::SynthRig(a) => synth_rig::run(&a, quiet),
         Command::RigScore(a) => rig_score::run(&a),
+        Command::Report(a) => report::run(&a, quiet),
     }
 }
