@@ -19,6 +19,7 @@ pub mod pack;
 pub mod photo_atlas;
 pub mod pipeline;
 pub mod plugin;
+pub mod report;
 pub mod synth;
 pub mod texture;
 pub mod topology;

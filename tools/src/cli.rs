@@ -41,6 +41,18 @@ pub struct GlobalArgs {
     /// photos): for servers that process uploaded models.
     #[arg(long, global = true)]
     pub confine: bool,
+    /// How long stages report progress on stderr: `auto` draws bars on a terminal (never with
+    /// --quiet); `json` prints one JSON line per stage update, terminal or not, for batch
+    /// wrappers.
+    #[arg(long, global = true, value_enum, default_value = "auto")]
+    pub progress: ProgressArg,
+}
+
+/// Values of `--progress`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ProgressArg {
+    Auto,
+    Json,
 }
 
 #[derive(Debug, Subcommand)]
@@ -75,6 +87,9 @@ pub enum Command {
     /// Prints the manual page (roff) of scanatlas or of one subcommand, or writes every page to
     /// a folder.
     Man(ManArgs),
+    /// Writes an offline HTML report comparing two models of the same mesh (for instance a
+    /// tool's output against its input): atlas pictures, plots and the figures in plain words.
+    Report(ReportArgs),
 }
 
 #[derive(Debug, Args)]
@@ -143,6 +158,33 @@ pub struct BatchSummaryArgs {
     pub json: bool,
 }
 
+/// Options of `report`.
+#[derive(Debug, Args)]
+pub struct ReportArgs {
+    /// The model before (for instance the input of a defragmentation).
+    pub input: PathBuf,
+    /// The model after: the same faces in the same order, with other UVs and textures.
+    pub output: PathBuf,
+    /// The report folder (index.html, report.json and pictures); a previous report there is
+    /// replaced, any other non-empty folder refused.
+    #[arg(short = 'o', long = "out", value_name = "DIR")]
+    pub dir: PathBuf,
+    #[command(flatten)]
+    pub pictures: ReportPictureArgs,
+}
+
+/// How the pictures of a report are made (`report`, `defrag --report-dir`, `build --report-dir`).
+#[derive(Debug, Args, Clone)]
+pub struct ReportPictureArgs {
+    /// Longest side of a sheet's pictures in the report, in pixels.
+    #[arg(long, value_name = "PX", default_value_t = 2048,
+          value_parser = clap::value_parser!(u32).range(16..=8192))]
+    pub preview_size: u32,
+    /// Points drawn on the surface for the report's colour PSNR (0: no colour comparison).
+    #[arg(long, value_name = "N", default_value_t = 1 << 20)]
+    pub colour_samples: usize,
+}
+
 #[derive(Debug, Args)]
 pub struct BuildArgs {
     /// The mesh (.ply, .obj, .gltf, .glb); any UVs it has are ignored.
@@ -188,6 +230,11 @@ pub struct BuildArgs {
     /// Write the full run report as JSON to this file.
     #[arg(long, value_name = "FILE.json")]
     pub report: Option<PathBuf>,
+    /// Write an offline HTML report (index.html, pictures, report.json) into this folder.
+    #[arg(long, value_name = "DIR")]
+    pub report_dir: Option<PathBuf>,
+    #[command(flatten)]
+    pub report_pictures: ReportPictureArgs,
 }
 
 #[derive(Debug, Args)]
@@ -471,6 +518,11 @@ pub struct DefragArgs {
     /// Write the full run report as JSON to this file.
     #[arg(long, value_name = "FILE.json")]
     pub report: Option<PathBuf>,
+    /// Write an offline HTML report (index.html, pictures, report.json) into this folder.
+    #[arg(long, value_name = "DIR")]
+    pub report_dir: Option<PathBuf>,
+    #[command(flatten)]
+    pub report_pictures: ReportPictureArgs,
 }
 
 #[derive(Debug, Args)]

@@ -4,4 +4,4 @@
 
 pub mod cli;
 pub mod commands;
-mod progress;
+pub mod progress;

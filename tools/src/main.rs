@@ -5,11 +5,12 @@
 use std::process::ExitCode;
 
 use clap::Parser;
-use scanatlas_cli::{cli, commands};
+use scanatlas_cli::{cli, commands, progress};
 
 fn main() -> ExitCode {
     let args = cli::Cli::parse();
     init_logging(args.global.verbose, args.global.quiet);
+    progress::init(args.global.quiet, args.global.progress == cli::ProgressArg::Json);
     if let Some(n) = args.global.threads
         && let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(usize::from(n)).build_global()
     {

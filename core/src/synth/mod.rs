@@ -20,7 +20,7 @@ mod pack;
 mod paint;
 pub mod rig;
 pub mod rig_score;
-mod rng;
+pub(crate) mod rng;
 pub use rng::XorShift64;
 #[cfg(test)]
 mod tests;

@@ -55,6 +55,11 @@ pub fn run(args: &BuildArgs, quiet: bool, strict: bool) -> Result<()> {
         super::defrag::write_report(p, json.as_bytes(), &protect)?;
     }
     super::report_warnings(&report.warnings, strict)?;
+    if let Some(dir) = &args.report_dir {
+        let run = serde_json::to_value(&report)?;
+        let jump = (report.seam_jump_before, report.seam_jump_after);
+        super::report::after_build(dir, &args.output, &run, jump, &args.report_pictures, quiet)?;
+    }
     if !quiet {
         if let Some(sp) = &report.seam_placement {
             eprintln!(

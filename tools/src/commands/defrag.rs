@@ -110,32 +110,40 @@ pub fn run(args: &DefragArgs, quiet: bool, strict: bool) -> Result<()> {
     let report = result?;
     tracing::info!("defrag finished in {:.1} s", report.times.total_ms / 1e3);
     super::report_warnings(&report.warnings, strict)?;
-    if !quiet {
-        let m = &report.merge;
-        eprintln!(
-            "wrote {}: charts {} -> {}, merges {} accepted of {} attempted, energy {:.4}, UV border {:.0} -> {:.0} texels, {:.1} s",
-            args.output.display(),
-            m.charts_before,
-            m.charts_after,
-            m.accepted,
-            m.attempted,
-            m.energy_after,
-            m.uv_border_before,
-            m.uv_border_after,
-            report.times.total_ms / 1e3
-        );
-        if let Some(p) = &report.pack {
-            eprintln!(
-                "packed {} charts on {} sheets ({} texels, occupancy {:.3}), grid-preserved area {:.3}; solidity {:.4} -> {:.4}",
-                p.charts,
-                p.sheets,
-                p.texels,
-                p.occupancy,
-                p.preserved_area_fraction,
-                report.input_stats.atlas_solidity.unwrap_or(0.0),
-                report.output_stats.atlas_solidity.unwrap_or(0.0)
-            );
-        }
+    print_summary(&report, quiet);
+    if let Some(dir) = &args.report_dir {
+        super::report::after_defrag(dir, &report, &args.report_pictures, quiet)?;
     }
     Ok(())
+}
+
+/// The end-of-run summary on stderr: the headline in plain words (sheet sizes, texel change,
+/// charts, the surface copied texel for texel, defects, lost faces), then the merge and packing
+/// figures for those who tune the run.
+fn print_summary(report: &DefragReport, quiet: bool) {
+    if quiet {
+        return;
+    }
+    let headline = scanatlas_core::report::Figures::from_defrag(report).headline;
+    eprintln!("wrote {}: {headline}", report.output.display());
+    let m = &report.merge;
+    eprintln!(
+        "  merges {} accepted of {} attempted, distortion {:.4}, UV border {:.0} -> {:.0} texels, {:.1} s",
+        m.accepted,
+        m.attempted,
+        m.energy_after,
+        m.uv_border_before,
+        m.uv_border_after,
+        report.times.total_ms / 1e3
+    );
+    if let Some(p) = &report.pack {
+        eprintln!(
+            "  packed {} charts on {} sheets, occupancy {:.0}%, solidity {:.4} -> {:.4}",
+            p.charts,
+            p.sheets,
+            100.0 * p.occupancy,
+            report.input_stats.atlas_solidity.unwrap_or(0.0),
+            report.output_stats.atlas_solidity.unwrap_or(0.0)
+        );
+    }
 }

@@ -9,6 +9,7 @@ pub mod defrag;
 mod demo;
 mod man;
 mod plugins;
+mod report;
 mod rig_score;
 mod stats;
 mod synth;
@@ -62,5 +63,6 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::BatchSummary(a) => batch::summary::run(&a),
         Command::Completions(a) => completions::run(&a),
         Command::Man(a) => man::run(&a),
+        Command::Report(a) => report::run(&a, quiet),
     }
 }
