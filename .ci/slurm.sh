@@ -4,7 +4,7 @@
 # slurmd (each remembered by pid), runs the Slurm test target (or the command given after `--`),
 # and stops exactly the daemons it started on exit, whatever the outcome.
 #
-#   bash .ci/slurm.sh            # the test: cargo test -p scanatlas-cli --test slurm -- --ignored
+#   bash .ci/slurm.sh            # the test: cargo test --workspace --test slurm -- --ignored
 #   bash .ci/slurm.sh -- CMD...  # any command with SLURM_CONF set, e.g. `-- bash` to try things
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -115,6 +115,6 @@ if [ "${1:-}" = "--" ]; then
   shift
   "$@"
 else
-  echo "== Slurm test: cargo test -p scanatlas-cli --test slurm"
-  SCANATLAS_SLURM=1 cargo test -p scanatlas-cli --test slurm -- --ignored --nocapture
+  echo "== Slurm test: cargo test --workspace --test slurm"
+  SCANATLAS_SLURM=1 cargo test --workspace --test slurm -- --ignored --nocapture
 fi
