@@ -1,30 +1,44 @@
-//! The `scanatlas` command line: argument parsing, logging, and exit codes (0 success, 1 failure,
-//! 2 bad usage). Every subcommand lives in its own module under `commands/`.
-
-mod cli;
-mod commands;
-mod progress;
+//! The `scanatlas` command line: argument parsing, logging, signals, and exit codes (0 success,
+//! 1 failure, 2 bad usage, 130 and 143 when stopped by SIGINT and SIGTERM). Every subcommand
+//! lives in its own module under `commands/`.
 
 use std::process::ExitCode;
 
 use clap::Parser;
+use scanatlas_cli::{cli, commands, progress};
 
 fn main() -> ExitCode {
     let args = cli::Cli::parse();
     init_logging(args.global.verbose, args.global.quiet);
+    progress::init(args.global.quiet, args.global.progress == cli::ProgressArg::Json);
     if let Some(n) = args.global.threads
-        && let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(n.max(1)).build_global()
+        && let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(usize::from(n)).build_global()
     {
         eprintln!("scanatlas: error: cannot start {n} threads: {e}");
         return ExitCode::from(1);
     }
-    match commands::run(args) {
+    if let Err(e) = catch_signals() {
+        eprintln!("scanatlas: error: cannot install the signal handlers: {e}");
+        return ExitCode::from(1);
+    }
+    let result = commands::run(args);
+    if let Some(signal) = scanatlas_core::cancel::signal().filter(|&s| s > 0) {
+        // The run stopped at a safe point and removed its temporary files; the shell's
+        // convention for a death by signal N is 128 + N.
+        eprintln!("scanatlas: interrupted by signal {signal}; the output was left as it was");
+        return ExitCode::from(128 + signal as u8);
+    }
+    match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) if err.downcast_ref::<commands::UsageError>().is_some() => {
             eprintln!("scanatlas: error: {err}");
             ExitCode::from(2)
         }
         Err(err) => {
+            // Under --strict the warnings are the reason for the failure: all of them are shown.
+            for w in strict_warnings(&err) {
+                eprintln!("scanatlas: warning: {w}");
+            }
             // One line per cause, outermost first, so cron logs stay readable.
             eprintln!("scanatlas: error: {err}");
             for cause in err.chain().skip(1) {
@@ -32,6 +46,34 @@ fn main() -> ExitCode {
             }
             ExitCode::from(1)
         }
+    }
+}
+
+/// SIGINT, SIGTERM and SIGHUP ask the running pipeline to stop at its next safe point (see
+/// `scanatlas_core::cancel`); a second one of the same kind ends the process at once.
+fn catch_signals() -> std::io::Result<()> {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    let asked = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    for sig in [SIGINT, SIGTERM, SIGHUP] {
+        // Registered first, so it sees the flag as the earlier signal left it: a second signal
+        // exits at once (what is left then is what a kill leaves, see docs/OUTPUT-SAFETY.md).
+        signal_hook::flag::register_conditional_shutdown(sig, 128 + sig, asked.clone())?;
+        signal_hook::flag::register(sig, asked.clone())?;
+        // SAFETY: the handler only stores into a static atomic, which is async-signal-safe.
+        unsafe {
+            signal_hook::low_level::register(sig, move || scanatlas_core::cancel::request(sig))
+        }?;
+    }
+    Ok(())
+}
+
+/// The warnings that made a `--strict` run fail before any work (warnings met after the run
+/// are printed by the command itself).
+fn strict_warnings(err: &anyhow::Error) -> &[scanatlas_core::warnings::Warning] {
+    use scanatlas_core::pipeline::PipelineError;
+    match err.downcast_ref::<PipelineError>() {
+        Some(PipelineError::Strict(s)) => &s.0,
+        _ => &[],
     }
 }
 

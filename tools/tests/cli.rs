@@ -23,6 +23,15 @@ fn assert_clean_failure(out: &Output, needle: &str) {
     assert!(stderr.contains(needle), "error does not mention {needle:?}: {stderr}");
 }
 
+/// Asserts a refusal as bad usage: exit status 2, an error line naming `needle`, no panic.
+#[track_caller]
+fn assert_usage_failure(out: &Output, needle: &str) {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "panic on bad input: {stderr}");
+    assert!(stderr.contains(needle), "error does not mention {needle:?}: {stderr}");
+}
+
 fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, bytes).unwrap();
@@ -150,7 +159,7 @@ fn convert_refuses_to_overwrite_its_input() {
     write(d, "t.png", &tiny_png());
     write(d, "q.obj", QUAD_OBJ.as_bytes());
     let out = scanatlas(&["convert", "q.obj", "-o", "q.obj"], d);
-    assert_clean_failure(&out, "q.obj");
+    assert_usage_failure(&out, "q.obj");
     assert_eq!(std::fs::read(d.join("q.obj")).unwrap(), QUAD_OBJ.as_bytes());
 }
 
@@ -289,13 +298,13 @@ fn defrag_refuses_to_overwrite_its_input() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let before = std::fs::read(d.join("s/scan.obj")).unwrap();
     let out = scanatlas(&["defrag", "s/scan.obj", "-o", "s/scan.obj", "-q"], d);
-    assert_clean_failure(&out, "is the input");
+    assert_usage_failure(&out, "is the input");
     let out = scanatlas(&["defrag", "s/scan.obj", "-o", "s/./scan.obj", "-q"], d);
-    assert_clean_failure(&out, "is the input");
+    assert_usage_failure(&out, "is the input");
     // An output whose sheet `sheet_0.png` would be the input's texture is refused too.
     let tex = std::fs::read(d.join("s/sheet_0.png")).unwrap();
     let out = scanatlas(&["defrag", "s/scan.obj", "-o", "s/sheet.obj", "-q"], d);
-    assert_clean_failure(&out, "sheet_0.png");
+    assert_usage_failure(&out, "sheet_0.png");
     assert_eq!(std::fs::read(d.join("s/sheet_0.png")).unwrap(), tex);
     assert_eq!(std::fs::read(d.join("s/scan.obj")).unwrap(), before);
 }
@@ -428,4 +437,79 @@ fn build_from_a_rig_then_defrag_its_output() {
     std::fs::create_dir_all(d.join("empty")).unwrap();
     assert_clean_failure(&build("empty", "e/out.obj", "e/r.json"), "photo_000.png");
     assert!(!d.join("e/out.obj").exists());
+}
+
+#[test]
+fn completions_print_a_script_for_every_shell() {
+    let dir = tempfile::tempdir().unwrap();
+    for (shell, needle) in [
+        ("bash", "complete -F _scanatlas"),
+        ("zsh", "#compdef scanatlas"),
+        ("fish", "complete -c scanatlas"),
+        ("elvish", "scanatlas"),
+        ("powershell", "Register-ArgumentCompleter"),
+    ] {
+        let out = scanatlas(&["completions", shell], dir.path());
+        assert!(out.status.success(), "{shell}: {}", String::from_utf8_lossy(&out.stderr));
+        let text = String::from_utf8(out.stdout).unwrap();
+        assert!(text.contains(needle), "{shell}: no {needle:?}");
+        // Completions follow the clap definitions: defrag's flags are in the script.
+        assert!(text.contains("matching-tolerance"), "{shell}: no defrag flag");
+    }
+    let out = scanatlas(&["completions", "tcsh"], dir.path());
+    assert_eq!(out.status.code(), Some(2));
+}
+
+#[test]
+fn man_pages_print_and_write() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = scanatlas(&["man"], dir.path());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let page = String::from_utf8(out.stdout).unwrap();
+    assert!(page.starts_with(".ie") || page.contains(".TH scanatlas"), "{page}");
+    assert!(page.contains("defrag"), "{page}");
+    let out = scanatlas(&["man", "defrag"], dir.path());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let page = String::from_utf8(out.stdout).unwrap();
+    assert!(page.contains(".TH scanatlas-defrag"), "{page}");
+    assert!(page.contains("matching\\-tolerance"), "{page}");
+    let out = scanatlas(&["man", "defragg"], dir.path());
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("stats"));
+    let out = scanatlas(&["man", "--out-dir", "pages"], dir.path());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for name in ["scanatlas.1", "scanatlas-defrag.1", "scanatlas-completions.1", "scanatlas-man.1"]
+    {
+        let text = std::fs::read_to_string(dir.path().join("pages").join(name)).unwrap();
+        assert!(text.contains(".TH"), "{name}");
+    }
+}
+
+#[test]
+fn defrag_help_is_grouped_with_examples() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = scanatlas(&["defrag", "--help"], dir.path());
+    assert!(out.status.success());
+    let help = String::from_utf8(out.stdout).unwrap();
+    let headings =
+        ["Paper parameters:", "Plugins:", "Packing:", "Textures:", "Repairs:", "Experiments:"];
+    let mut at = 0;
+    for h in headings {
+        let pos = help.find(h).unwrap_or_else(|| panic!("no heading {h:?} in\n{help}"));
+        assert!(pos > at, "{h} out of order in\n{help}");
+        at = pos;
+    }
+    // Each flag sits under its group.
+    let section = |h: &str| {
+        let start = help.find(h).unwrap();
+        let end = help[start + 1..].find("\n\n").map_or(help.len(), |e| start + 1 + e);
+        help[start..end].to_string()
+    };
+    assert!(section("Paper parameters:").contains("--matching-tolerance"));
+    assert!(section("Plugins:").contains("--solver"));
+    assert!(section("Packing:").contains("--max-sheet-size"));
+    assert!(section("Textures:").contains("--texture-format"));
+    assert!(section("Repairs:").contains("--no-untangle"));
+    assert!(section("Experiments:").contains("--cluster-faces"));
+    assert_eq!(help.matches("scanatlas defrag ").count(), 2, "two examples:\n{help}");
 }

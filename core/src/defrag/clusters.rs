@@ -9,7 +9,7 @@
 //! import is the same whichever worker ran it and whenever it finished.
 
 use std::sync::Mutex;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use rayon::prelude::*;
 
@@ -37,8 +37,7 @@ pub fn merge_charts_parallel(
     let start = Instant::now();
     let mut master = Engine::new(t, opts.clone());
     master.report.timings.init_ms = start.elapsed().as_secs_f64() * 1e3;
-    let deadline =
-        (opts.time_limit > 0.0).then(|| start + Duration::from_secs_f64(opts.time_limit));
+    let deadline = opts.deadline(start);
     let pool = Mutex::new(solvers);
 
     let mut cluster = if opts.cluster_faces > 0 {
@@ -48,7 +47,10 @@ pub fn merge_charts_parallel(
     };
     loop {
         let n_clusters = cluster.iter().filter(|&&c| c != NONE).max().map_or(0, |&m| m + 1);
-        if n_clusters <= 1 || deadline.is_some_and(|d| Instant::now() >= d) {
+        if n_clusters <= 1
+            || deadline.is_some_and(|d| Instant::now() >= d)
+            || crate::cancel::requested()
+        {
             break;
         }
         let round_start = Instant::now();

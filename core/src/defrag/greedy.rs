@@ -5,7 +5,7 @@
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use super::ops::{EngineOp, OpGeometry, OpState};
 use super::state::{Engine, MergedLayout, OrdF64};
@@ -30,8 +30,7 @@ pub fn merge_charts(
     let start = Instant::now();
     let mut e = Engine::new(t, opts.clone());
     e.report.timings.init_ms = start.elapsed().as_secs_f64() * 1e3;
-    let deadline =
-        (opts.time_limit > 0.0).then(|| start + Duration::from_secs_f64(opts.time_limit));
+    let deadline = opts.deadline(start);
     e.report.stop = e.run_queue(scorer, solver, None, deadline);
     Ok(e.finish(start))
 }
@@ -125,7 +124,9 @@ impl Engine<'_> {
         border_stop: f64,
         deadline: Option<Instant>,
     ) -> Option<StopReason> {
-        if deadline.is_some_and(|d| Instant::now() >= d) {
+        // A requested stop (a signal) ends the queue like the time limit; the pipeline then
+        // gives up the run at its next safe point.
+        if deadline.is_some_and(|d| Instant::now() >= d) || crate::cancel::requested() {
             return Some(StopReason::TimeLimit);
         }
         if self.opts.uv_border_target > 0.0 && self.border_len < border_stop {

@@ -18,6 +18,7 @@
 
 mod attempt;
 mod clusters;
+mod commit;
 mod greedy;
 mod grid;
 mod kernel;
@@ -152,6 +153,17 @@ impl Default for MergeOptions {
 }
 
 impl MergeOptions {
+    /// When the merge must stop (`None`: no limit). A limit too far to be represented (a typo
+    /// such as `1e19` seconds) is no limit rather than an overflow.
+    pub fn deadline(&self, start: std::time::Instant) -> Option<std::time::Instant> {
+        if self.time_limit <= 0.0 {
+            return None;
+        }
+        std::time::Duration::try_from_secs_f64(self.time_limit)
+            .ok()
+            .and_then(|d| start.checked_add(d))
+    }
+
     /// Checks the values, naming the first bad one.
     pub fn validate(&self) -> Result<(), DefragError> {
         let bad = |name: &'static str, msg: &'static str| Err(DefragError::BadOption { name, msg });

@@ -338,4 +338,23 @@ impl Engine<'_> {
             self.problem.fixed[best.2 as usize] = true;
         }
     }
+
+    /// Clears the marks of the optimization area: budgets, patch faces, local and frozen
+    /// vertices.
+    pub(super) fn clear_patch_marks(&mut self) {
+        for &v in &self.free {
+            self.vert_budget[v as usize] = f64::NAN;
+        }
+        for &f in &self.opt_faces {
+            self.face_opt[f as usize] = false;
+        }
+        for &v in &self.local_verts {
+            self.vert_local[v as usize] = NONE;
+        }
+        for &v in &self.frozen_list {
+            self.vert_frozen[v as usize] = false;
+        }
+        self.frozen_list.clear();
+        self.local_verts.clear();
+    }
 }

@@ -29,7 +29,7 @@ use std::cmp::Reverse;
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::time::Instant;
 
-use super::attempt::CommitRecord;
+use super::commit::CommitRecord;
 use super::greedy::Queue;
 use super::ops::EngineOp;
 use super::state::{Engine, OrdF64};

@@ -11,7 +11,7 @@ use crate::geometry::{Tri2, energy_weight, isometric_energy, signed_area2};
 use crate::plugin::LocalProblem;
 use crate::topology::{ChartId, HalfEdgeId, Topology, UvVertId};
 
-pub(crate) const NONE: u32 = u32::MAX;
+pub(crate) use crate::index::NONE;
 
 /// The result of the merge stage besides the updated [`Topology`]: dense chart ids for packing
 /// and the faces whose UVs were re-optimized.

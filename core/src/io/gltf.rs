@@ -16,6 +16,7 @@
 //! base-colour texture's `KHR_texture_transform`, if any.
 
 mod accessor;
+mod draco;
 mod fresh;
 mod output;
 mod reader;
@@ -76,6 +77,25 @@ pub struct GltfScene {
     /// Triangle primitives in file order (mesh, then primitive), covering all faces in order.
     pub primitives: Vec<PrimitiveSpan>,
     pub nodes: Vec<GltfNode>,
+}
+
+/// The files a glTF document refers to by URI (buffers and images, data URIs aside), resolved
+/// against its folder.
+pub fn external_files(scene: &GltfScene) -> Vec<std::path::PathBuf> {
+    let dir = source::base_dir(&scene.source);
+    let mut out = vec![scene.source.clone()];
+    for list in ["buffers", "images"] {
+        let Some(items) = scene.document.get(list).and_then(|v| v.as_array()) else { continue };
+        for item in items {
+            let Some(u) = item.get("uri").and_then(|u| u.as_str()) else { continue };
+            if uri::parse_data_uri(u).is_none()
+                && let Ok(rel) = uri::percent_decode(u)
+            {
+                out.push(dir.join(rel));
+            }
+        }
+    }
+    out
 }
 
 /// Reads a .gltf or .glb file.

@@ -7,19 +7,25 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::PipelineError;
-use crate::io::WriteOptions;
+use super::context::{RunContext, RunPaths, check_paths, tile_bytes};
 use crate::model::ImageSource;
 use crate::texture::encode::{EncodeOptions, write_image};
 use crate::texture::{ImageFormat, TileStore, decode};
+use crate::warnings::{Warning, check_strict};
 
 /// Options of a conversion.
 #[derive(Clone, Debug)]
 pub struct ConvertOptions {
     /// Texture format of the output sheets; `None` keeps each sheet's input format.
     pub texture_format: Option<ImageFormat>,
+    /// Quality (1 to 100) of JPEG sheets and of lossy WebP sheets.
     pub jpeg_quality: u8,
+    /// WebP sheets are lossy (at `jpeg_quality`) instead of lossless.
+    pub lossy_webp: bool,
     /// Folder for tile files; `None` = the output's folder.
     pub work_dir: Option<PathBuf>,
+    /// Refuse to convert a model that has warnings (see `warnings`).
+    pub strict: bool,
 }
 
 /// What a conversion did.
@@ -30,6 +36,8 @@ pub struct ConvertReport {
     pub read_seconds: f64,
     pub textures_seconds: f64,
     pub write_seconds: f64,
+    /// What the reader found that degrades the model (see `warnings`).
+    pub warnings: Vec<Warning>,
 }
 
 /// The file name of output sheet `k` of a model written to `output`.
@@ -58,58 +66,65 @@ pub(super) fn write_sheets(
     Ok(paths)
 }
 
-/// Converts `input` to `output`; never overwrites the input or its textures.
+/// Converts `input` to `output`; never overwrites the input or any file it refers to. The paths
+/// are checked before the model is read, and the output set is committed as a whole (see
+/// [`RunContext`]).
 pub fn convert(
     input: &Path,
     output: &Path,
     opts: &ConvertOptions,
 ) -> Result<ConvertReport, PipelineError> {
+    let inputs = [input.to_path_buf()];
+    let paths =
+        RunPaths { inputs: &inputs, output, work_dir: opts.work_dir.as_deref(), report: None };
+    check_paths(&paths)?;
     let t0 = Instant::now();
     let mut model = super::load_model(input)?;
     let read_seconds = t0.elapsed().as_secs_f64();
-
-    let out_dir = match output.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    super::create_dir(&out_dir)?;
-    let work_dir = opts.work_dir.clone().unwrap_or_else(|| out_dir.clone());
-    super::create_dir(&work_dir)?;
-
-    let mut protect = vec![input.to_path_buf()];
-    protect.extend(model.sheets.iter().filter_map(|s| match &s.image {
-        ImageSource::File(p) => Some(p.clone()),
-        ImageSource::Embedded { .. } => None,
-    }));
+    check_strict(opts.strict, &model.warnings)?;
+    crate::io::check_output(&model, output)?;
+    let ctx = RunContext::open(&paths, Some(&model))?;
+    let tiles = model.sheets.iter().filter_map(|s| s.size).map(|(w, h)| tile_bytes(w, h, 4)).max();
+    ctx.check_space(tiles.unwrap_or(0), input_bytes(ctx.protected()))?;
 
     let t1 = Instant::now();
+    let staged = ctx.staged_output();
     let mut written = Vec::with_capacity(model.sheets.len());
     for (k, sheet) in model.sheets.iter_mut().enumerate() {
-        let store = decode::decode_to_store(&sheet.image, &work_dir)?;
+        ctx.checkpoint()?;
+        let store = decode::decode_to_store(&sheet.image, ctx.work_dir())?;
         let format = match opts.texture_format {
             Some(f) => f,
             None => ImageFormat::of_source(&sheet.image)?,
         };
-        let path = output_sheet_path(output, k, format);
+        let path = output_sheet_path(&staged, k, format);
         let enc = EncodeOptions {
             format: Some(format),
             jpeg_quality: opts.jpeg_quality,
-            protect: protect.clone(),
+            webp_quality: opts.lossy_webp.then_some(opts.jpeg_quality),
+            protect: ctx.protected().to_vec(),
         };
         write_image(&store, &path, &enc)?;
         sheet.image = ImageSource::File(path.clone());
         sheet.size = Some((store.width(), store.height()));
-        written.push(path);
+        written.push(ctx.final_path(&path));
     }
     let textures_seconds = t1.elapsed().as_secs_f64();
 
     let t2 = Instant::now();
-    crate::io::write_model(&model, output, &WriteOptions { protect })?;
+    crate::io::write_model(&model, &staged, &ctx.write_options())?;
+    ctx.commit()?;
     Ok(ConvertReport {
         faces: model.faces.len(),
         sheets: written,
         read_seconds,
         textures_seconds,
         write_seconds: t2.elapsed().as_secs_f64(),
+        warnings: model.warnings,
     })
+}
+
+/// The total size of `files` (what a written set is expected to weigh, from its inputs).
+pub(super) fn input_bytes(files: &[PathBuf]) -> u64 {
+    files.iter().filter_map(|p| std::fs::metadata(p).ok()).map(|m| m.len()).sum()
 }

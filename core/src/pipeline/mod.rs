@@ -3,9 +3,12 @@
 
 mod background;
 pub mod build;
+mod charts;
+pub mod context;
 pub mod convert;
 mod decode_ahead;
 pub mod defrag;
+mod emit;
 mod rigid_split;
 
 use std::path::{Path, PathBuf};
@@ -51,6 +54,15 @@ pub enum PipelineError {
     Defrag(#[from] crate::defrag::DefragError),
     #[error("packing: {0}")]
     Pack(#[from] crate::pack::PackError),
+    #[error(transparent)]
+    Output(#[from] crate::output_set::OutputError),
+    #[error(transparent)]
+    Interrupted(#[from] crate::cancel::Interrupted),
+    /// Cameras or photos of a `build` that cannot be read or do not fit together.
+    #[error(transparent)]
+    Build(#[from] crate::photo_atlas::BuildError),
+    #[error(transparent)]
+    Strict(#[from] crate::warnings::StrictError),
 }
 
 /// Reads a model and fills in every sheet's size from its image header (no pixels decoded).

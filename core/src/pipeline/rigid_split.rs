@@ -17,7 +17,7 @@
 //! heaviest piece go with it, so each split adds one edge-connected chart, never more.
 
 use super::PipelineError;
-use super::defrag::layout_input;
+use super::charts::layout_input;
 use crate::pack::{PackOptions, RigidSplitReport, rigid_groups_beyond_anchor};
 use crate::topology::Topology;
 

@@ -15,7 +15,9 @@ use super::{PixelFormat, TextureError};
 /// Side of a tile in pixels.
 pub const TILE: u32 = 256;
 
-/// A sheet's pixels, tiled and memory-mapped. The backing file is deleted when the store drops.
+/// A sheet's pixels, tiled and memory-mapped. The backing file has no name (it is created
+/// unlinked), so it disappears with the store, or with the process however it ends: a signal,
+/// a kill or a power loss leaves no tile file behind.
 #[derive(Debug)]
 pub struct TileStore {
     width: u32,
@@ -24,8 +26,41 @@ pub struct TileStore {
     tiles_x: u32,
     tiles_y: u32,
     map: MmapMut,
-    // Kept so the file is removed when the store is dropped.
-    _file: tempfile::NamedTempFile,
+    /// The folder the backing file lives in, for error messages.
+    work_dir: PathBuf,
+    // Kept open for the mapping's lifetime.
+    _file: std::fs::File,
+}
+
+/// Gives `file` its `len` bytes on disk now, so that a full disk is an error here rather than
+/// a SIGBUS when a page of the mapping is first written. File systems that cannot preallocate
+/// get a plain (sparse) length.
+fn allocate(file: &std::fs::File, len: u64, work_dir: &Path) -> Result<(), TextureError> {
+    let file_err =
+        |e: std::io::Error| TextureError::File { path: work_dir.to_path_buf(), source: e };
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::unix::io::AsRawFd;
+        let Ok(len_off) = libc::off_t::try_from(len) else {
+            return Err(file_err(std::io::Error::other("tile file too large")));
+        };
+        // SAFETY: fallocate reads the descriptor number and two integers.
+        let rc = unsafe { libc::fallocate(file.as_raw_fd(), 0, 0, len_off) };
+        if rc == 0 {
+            return Ok(());
+        }
+        let err = std::io::Error::last_os_error();
+        if err.raw_os_error() == Some(libc::ENOSPC) {
+            return Err(file_err(std::io::Error::new(
+                err.kind(),
+                format!("no space left for a {} tile file", crate::output_set::human_bytes(len)),
+            )));
+        }
+        if !matches!(err.raw_os_error(), Some(libc::EOPNOTSUPP | libc::ENOSYS)) {
+            return Err(file_err(err));
+        }
+    }
+    file.set_len(len).map_err(file_err)
 }
 
 impl TileStore {
@@ -56,16 +91,13 @@ impl TileStore {
         }
         let file_err =
             |e: std::io::Error| TextureError::File { path: work_dir.to_path_buf(), source: e };
-        let file = tempfile::Builder::new()
-            .prefix("scanatlas-tiles-")
-            .suffix(".raw")
-            .tempfile_in(work_dir)
-            .map_err(file_err)?;
-        file.as_file().set_len(bytes as u64).map_err(file_err)?;
-        // SAFETY: the file is a private temporary file that this store owns exclusively; nobody
-        // else truncates or writes it while it is mapped.
-        let map = unsafe { MmapMut::map_mut(file.as_file()) }.map_err(file_err)?;
-        Ok(Self { width, height, format, tiles_x, tiles_y, map, _file: file })
+        let file = tempfile::tempfile_in(work_dir).map_err(file_err)?;
+        allocate(&file, bytes as u64, work_dir)?;
+        // SAFETY: the file has no name and this store owns its only descriptor; nobody else
+        // truncates or writes it while it is mapped.
+        let map = unsafe { MmapMut::map_mut(&file) }.map_err(file_err)?;
+        let work_dir = work_dir.to_path_buf();
+        Ok(Self { width, height, format, tiles_x, tiles_y, map, work_dir, _file: file })
     }
 
     fn tile_bytes_for(format: PixelFormat) -> usize {
@@ -91,9 +123,9 @@ impl TileStore {
     pub fn tile_bytes(&self) -> usize {
         Self::tile_bytes_for(self.format)
     }
-    /// The path of the backing file.
-    pub fn backing_path(&self) -> PathBuf {
-        self._file.path().to_path_buf()
+    /// The folder of the (unnamed) backing file.
+    pub fn work_dir(&self) -> &Path {
+        &self.work_dir
     }
 
     /// The pixel rectangle tile `(tx, ty)` covers, clipped to the image.
@@ -251,7 +283,7 @@ impl TileStore {
     pub fn flush_async(&self) -> Result<(), TextureError> {
         self.map
             .flush_async()
-            .map_err(|e| TextureError::File { path: self.backing_path(), source: e })
+            .map_err(|e| TextureError::File { path: self.work_dir.clone(), source: e })
     }
 }
 
@@ -282,10 +314,20 @@ mod tests {
             }
         }
         assert_eq!(s.pixel(TILE + 1, TILE + 1)[0], (((TILE + 1) * 3 * 7 + (TILE + 1) * 13) as u8));
-        let path = s.backing_path();
-        assert!(path.exists());
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            0,
+            "the backing file has no name, so nothing is left behind even by a kill"
+        );
         drop(s);
-        assert!(!path.exists(), "backing file removed on drop");
+    }
+
+    #[test]
+    fn a_full_disk_is_an_error_not_a_signal() {
+        // A store far larger than any disk: the space is asked for up front and refused.
+        let dir = tempfile::tempdir().unwrap();
+        let err = TileStore::create(dir.path(), 1 << 30, 1 << 24, PixelFormat::RGB8).unwrap_err();
+        assert!(err.to_string().contains(&dir.path().display().to_string()), "{err}");
     }
 
     #[test]

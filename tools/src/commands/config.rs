@@ -283,9 +283,7 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
     };
     let padding = match args.padding {
         Some(p) => p,
-        None => {
-            file.whole("padding", 1 << 16)?.map_or(PackOptions::default().padding, |p| p as u32)
-        }
+        None => file.whole("padding", 4096)?.map_or(PackOptions::default().padding, |p| p as u32),
     };
     let jpeg_quality = match args.jpeg_quality {
         Some(q) => q,
@@ -318,7 +316,9 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
         },
         texture_format: args.texture_format.map(super::defrag::image_format),
         jpeg_quality,
+        lossy_webp: args.texture_format.is_some_and(crate::cli::TextureFormatArg::is_lossy_webp),
         work_dir: args.work_dir.clone(),
+        report: args.report.clone(),
         metrics_overlaps: None,
         merge_only: args.merge_only || file.flag("merge-only")?,
         untangle: if args.no_untangle || file.flag("no-untangle")? { None } else { base.untangle },

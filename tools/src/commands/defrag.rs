@@ -2,6 +2,8 @@
 //! name, a spinner per stage, a one-line summary on stderr and the full report as JSON on request.
 
 use anyhow::{Context, Result};
+use scanatlas_core::pipeline::PipelineError;
+use scanatlas_core::pipeline::context::{RunPaths, check_paths};
 use scanatlas_core::pipeline::defrag::{DefragConfig, DefragReport, defrag_with_progress};
 use scanatlas_core::plugin::Registry;
 use scanatlas_core::texture::ImageFormat;
@@ -16,6 +18,7 @@ pub fn image_format(f: TextureFormatArg) -> ImageFormat {
         TextureFormatArg::Jpg => ImageFormat::Jpeg,
         TextureFormatArg::Tiff => ImageFormat::Tiff,
         TextureFormatArg::Exr => ImageFormat::Exr,
+        TextureFormatArg::Webp | TextureFormatArg::WebpLossy => ImageFormat::Webp,
     }
 }
 
@@ -24,6 +27,34 @@ pub fn builtin_registry() -> Registry {
     let mut registry = Registry::default();
     scanatlas_plugins::register_builtin(&mut registry);
     registry
+}
+
+/// A pipeline error as the command line reports it: a refused option or path is bad usage
+/// (exit status 2).
+pub fn usage_or_failure(e: anyhow::Error) -> anyhow::Error {
+    match e.downcast::<PipelineError>() {
+        Ok(PipelineError::Usage(msg)) => super::UsageError(msg).into(),
+        Ok(other) => other.into(),
+        Err(e) => e,
+    }
+}
+
+/// A run report with how the run ended (`completed`, or `interrupted` by a signal).
+#[derive(serde::Serialize)]
+struct StatusReport<'a, R: serde::Serialize> {
+    status: &'a str,
+    #[serde(flatten)]
+    report: &'a R,
+}
+
+/// Writes a report's bytes, atomically, never over one of `protect`.
+pub fn write_report(
+    path: &std::path::Path,
+    bytes: &[u8],
+    protect: &[std::path::PathBuf],
+) -> Result<()> {
+    scanatlas_core::atomic::write_atomic(path, protect, |w| w.write_all(bytes))
+        .with_context(|| format!("writing the report {}", path.display()))
 }
 
 /// Runs the pipeline with one spinner per stage (none with `--quiet`).
@@ -39,6 +70,7 @@ pub fn run_pipeline(
         if let Some(old) = stage.take() {
             old.finish();
         }
+        tracing::info!("stage: {}", s.label());
         stage = Some(Stage::spinner(s.label(), quiet));
     });
     if let Some(old) = stage.take() {
@@ -47,43 +79,71 @@ pub fn run_pipeline(
     Ok(report?)
 }
 
-pub fn run(args: &DefragArgs, quiet: bool) -> Result<()> {
-    // Every name and parameter is checked (exit status 2) before the model is read.
-    let cfg = super::config::defrag_config(args, &builtin_registry())?;
-    let report = run_pipeline(&args.input, &args.output, &cfg, quiet)?;
+pub fn run(args: &DefragArgs, quiet: bool, strict: bool) -> Result<()> {
+    // Every name and parameter is checked (exit status 2) before the model is read; the output
+    // and report paths are checked by the pipeline before any work.
+    let mut cfg = super::config::defrag_config(args, &builtin_registry())?;
+    cfg.strict = strict;
+    let paths = RunPaths {
+        inputs: std::slice::from_ref(&args.input),
+        output: &args.output,
+        work_dir: args.work_dir.as_deref(),
+        report: args.report.as_deref(),
+    };
+    check_paths(&paths).map_err(|e| super::UsageError(e.to_string()))?;
+    let result = run_pipeline(&args.input, &args.output, &cfg, quiet).map_err(usage_or_failure);
     if let Some(path) = &args.report {
-        let json = serde_json::to_vec_pretty(&report)?;
-        scanatlas_core::atomic::write_atomic(path, std::slice::from_ref(&args.input), |w| {
-            w.write_all(&json)
-        })
-        .with_context(|| format!("writing the report {}", path.display()))?;
+        let status = match &result {
+            Ok(_) => "completed",
+            Err(_) if scanatlas_core::cancel::requested() => "interrupted",
+            // Refused or failed runs write no report: a refused path may be the report's.
+            Err(_) => return result.map(|_| ()),
+        };
+        let json = match &result {
+            Ok(report) => serde_json::to_vec_pretty(&StatusReport { status, report })?,
+            Err(_) => serde_json::to_vec_pretty(&serde_json::json!({
+                "status": status, "input": args.input, "output": args.output
+            }))?,
+        };
+        write_report(path, &json, &[args.input.clone(), args.output.clone()])?;
     }
-    if !quiet {
-        let m = &report.merge;
-        eprintln!(
-            "wrote {}: charts {} -> {}, merges {} accepted of {} attempted, energy {:.4}, UV border {:.0} -> {:.0} texels, {:.1} s",
-            args.output.display(),
-            m.charts_before,
-            m.charts_after,
-            m.accepted,
-            m.attempted,
-            m.energy_after,
-            m.uv_border_before,
-            m.uv_border_after,
-            report.times.total_ms / 1e3
-        );
-        if let Some(p) = &report.pack {
-            eprintln!(
-                "packed {} charts on {} sheets ({} texels, occupancy {:.3}), grid-preserved area {:.3}; solidity {:.4} -> {:.4}",
-                p.charts,
-                p.sheets,
-                p.texels,
-                p.occupancy,
-                p.preserved_area_fraction,
-                report.input_stats.atlas_solidity.unwrap_or(0.0),
-                report.output_stats.atlas_solidity.unwrap_or(0.0)
-            );
-        }
+    let report = result?;
+    tracing::info!("defrag finished in {:.1} s", report.times.total_ms / 1e3);
+    super::report_warnings(&report.warnings, strict)?;
+    print_summary(&report, quiet);
+    if let Some(dir) = &args.report_dir {
+        super::report::after_defrag(dir, &report, &args.report_pictures, quiet)?;
     }
     Ok(())
+}
+
+/// The end-of-run summary on stderr: the headline in plain words (sheet sizes, texel change,
+/// charts, the surface copied texel for texel, defects, lost faces), then the merge and packing
+/// figures for those who tune the run.
+fn print_summary(report: &DefragReport, quiet: bool) {
+    if quiet {
+        return;
+    }
+    let headline = scanatlas_core::report::Figures::from_defrag(report).headline;
+    eprintln!("wrote {}: {headline}", report.output.display());
+    let m = &report.merge;
+    eprintln!(
+        "  merges {} accepted of {} attempted, distortion {:.4}, UV border {:.0} -> {:.0} texels, {:.1} s",
+        m.accepted,
+        m.attempted,
+        m.energy_after,
+        m.uv_border_before,
+        m.uv_border_after,
+        report.times.total_ms / 1e3
+    );
+    if let Some(p) = &report.pack {
+        eprintln!(
+            "  packed {} charts on {} sheets, occupancy {:.0}%, solidity {:.4} -> {:.4}",
+            p.charts,
+            p.sheets,
+            100.0 * p.occupancy,
+            report.input_stats.atlas_solidity.unwrap_or(0.0),
+            report.output_stats.atlas_solidity.unwrap_or(0.0)
+        );
+    }
 }

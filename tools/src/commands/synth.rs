@@ -31,6 +31,8 @@ pub fn run(args: &SynthArgs, quiet: bool) -> Result<()> {
         sheets: args.sheets,
         ..SynthParams::default()
     };
+    // Bad parameters are bad usage (exit status 2), found before anything is written.
+    params.validate().map_err(|e| super::UsageError(e.to_string()))?;
     let t0 = std::time::Instant::now();
     let w = write(&args.out_dir, &params, args.format, quiet)?;
     if !quiet {

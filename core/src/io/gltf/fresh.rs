@@ -43,7 +43,7 @@ pub(super) fn write(
     opts: &WriteOptions,
     binary: bool,
 ) -> Result<(), IoError> {
-    let (doc, bin) = build(model, path, binary)?;
+    let (doc, bin) = build(model, path, binary, opts)?;
     output::emit(doc, bin, &[], path, opts, binary, &[])
 }
 
@@ -54,8 +54,13 @@ fn push_f32s(out: &mut Vec<u8>, v: &[f32]) {
 }
 
 /// Builds the document and its buffer.
-pub(super) fn build(model: &Model, path: &Path, binary: bool) -> Result<(Value, Bin), IoError> {
-    let out_dir = super::source::base_dir(path);
+pub(super) fn build(
+    model: &Model,
+    path: &Path,
+    binary: bool,
+    opts: &WriteOptions,
+) -> Result<(Value, Bin), IoError> {
+    let out_dir = opts.final_path(&super::source::base_dir(path));
     let corners = model.faces.len() * 3;
     if corners > u32::MAX as usize {
         return Err(IoError::unsupported(path, "too many faces for 32-bit glTF indices"));
@@ -161,7 +166,15 @@ pub(super) fn build(model: &Model, path: &Path, binary: bool) -> Result<(Value, 
         if let crate::model::ImageSource::Embedded { name, .. } = &sheet.image {
             img.insert("name".into(), json!(name));
         }
-        output::set_image_source(&mut img, &sheet.image, &out_dir, binary, &mut bin, &mut views)?;
+        output::set_image_source(
+            &mut img,
+            &sheet.image,
+            &out_dir,
+            opts,
+            binary,
+            &mut bin,
+            &mut views,
+        )?;
         images.push(Value::Object(img));
         textures.push(json!({"sampler": 0, "source": s}));
     }

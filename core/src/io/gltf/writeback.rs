@@ -98,7 +98,7 @@ pub(super) fn write_back(
     }
 
     let doc_src = source::open_document(src)?;
-    let sources = source::load_buffers(src, orig, &doc_src)?;
+    let sources = super::draco::reload(src, orig, &doc_src)?;
     let Some(Plan { mut blocks, spans, span_block }) = plan(model, scene, &sources, path)? else {
         return Ok(false);
     };
@@ -279,6 +279,7 @@ pub(super) fn write_back(
         scene,
         &mut doc,
         path,
+        opts,
         binary,
         &mut newbin,
         &mut newviews,
@@ -367,6 +368,7 @@ fn rewrite_materials(
     scene: &GltfScene,
     doc: &mut Value,
     path: &Path,
+    opts: &WriteOptions,
     binary: bool,
     newbin: &mut Bin,
     newviews: &mut Vec<Value>,
@@ -375,7 +377,7 @@ fn rewrite_materials(
     let orig = &scene.document;
     let src = &scene.source;
     // Materials, textures and images of the current sheets.
-    let out_dir = source::base_dir(path);
+    let out_dir = opts.final_path(&source::base_dir(path));
     let orig_images = orig.get("images").and_then(Value::as_array).map_or(0, Vec::len);
     let orig_mats = orig.get("materials").and_then(Value::as_array).map_or(0, Vec::len);
     let mut sheet_texture: HashMap<SheetId, usize> = HashMap::new();
@@ -411,6 +413,7 @@ fn rewrite_materials(
                             &mut img,
                             &sheet_data.image,
                             &out_dir,
+                            opts,
                             binary,
                             newbin,
                             newviews,

@@ -57,4 +57,18 @@ pub struct ObjExtras {
     pub groups: Vec<GroupMarker>,
     /// `(material name, options)` for each `map_Kd` that carried options (`-s 1 1 1`, ...).
     pub map_kd_options: Vec<(String, String)>,
+    /// The material libraries (`mtllib`) read, resolved.
+    pub libraries: Vec<std::path::PathBuf>,
+}
+
+/// The file a texture-map statement of a material (`map_Bump -bm 1 n.png`, stored resolved)
+/// names; `None` for other statements.
+pub fn map_file(line: &str) -> Option<std::path::PathBuf> {
+    let (kw, rest) = lex::split_keyword(line.as_bytes());
+    let kw = String::from_utf8_lossy(kw).to_ascii_lowercase();
+    if !mtl::is_map_keyword(&kw) {
+        return None;
+    }
+    let (_, file) = mtl::split_map_args(rest);
+    (!file.is_empty()).then(|| std::path::PathBuf::from(file))
 }

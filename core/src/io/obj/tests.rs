@@ -159,11 +159,11 @@ fn reads_every_feature() {
     );
 
     let notes = m.notes.join("\n");
-    assert!(
-        notes.contains("1 polygons with more than 3 vertices fan-triangulated into 2"),
-        "{notes}"
-    );
+    assert!(notes.contains("1 polygons with more than 3 vertices triangulated into 2"), "{notes}");
+    let notes: Vec<String> = m.warnings.iter().map(ToString::to_string).collect();
+    let notes = notes.join("\n");
     assert!(notes.contains("material 'ghost'"), "{notes}");
+    assert!(notes.contains("[undefined-material]"), "{notes}");
     assert!(notes.contains("2 line/point statements"), "{notes}");
     assert!(notes.contains("1 unsupported statements"), "{notes}");
     assert!(notes.contains("UV transform"), "{notes}");
@@ -184,6 +184,7 @@ fn chunking_does_not_change_the_result() {
         assert_eq!(m.materials, whole.materials);
         assert_eq!(extras(&m), extras(&whole));
         assert_eq!(m.notes, whole.notes);
+        assert_eq!(m.warnings, whole.warnings);
     }
 }
 
@@ -303,7 +304,7 @@ fn several_libraries_on_one_mtllib_line() {
     let m = read(&obj).unwrap();
     assert_eq!(m.materials.len(), 2);
     assert_eq!(m.faces[0].material, Some(MaterialId(1)));
-    assert!(m.notes.is_empty(), "{:?}", m.notes);
+    assert!(m.warnings.is_empty(), "{:?}", m.warnings);
 }
 
 fn same_f64s<const N: usize>(a: &[[f64; N]], b: &[[f64; N]]) -> bool {
@@ -330,7 +331,7 @@ fn round_trip_to_another_directory() {
     let a = read(&obj).unwrap();
     let out = dir.path().join("out/sub/result.obj");
     std::fs::create_dir_all(out.parent().unwrap()).unwrap();
-    write(&a, &out, &WriteOptions { protect: vec![obj.clone()] }).unwrap();
+    write(&a, &out, &WriteOptions { protect: vec![obj.clone()], ..Default::default() }).unwrap();
 
     let mtl = std::fs::read_to_string(dir.path().join("out/sub/result.mtl")).unwrap();
     assert!(mtl.contains("map_Kd -s 1 1 1 -clamp on ../../tex dir/shared tex.png\n"), "{mtl}");
@@ -348,7 +349,7 @@ fn round_trip_to_another_directory() {
         assert!(p.is_file(), "{}", p.display());
     }
     // The only note left is the UV transform one: `ghost` is now a defined material.
-    assert!(!b.notes.iter().any(|n| n.contains("ghost")), "{:?}", b.notes);
+    assert!(!b.warnings.iter().any(|n| n.message.contains("ghost")), "{:?}", b.warnings);
 }
 
 /// A small deterministic generator of awkward f64 values (no dependency on `rand`).
@@ -424,15 +425,20 @@ fn writer_refuses_protected_targets_and_writes_nothing() {
     let obj = fixture(dir.path());
     let m = read(&obj).unwrap();
     let before = std::fs::read(&obj).unwrap();
-    let err = write(&m, &obj, &WriteOptions { protect: vec![obj.clone()] }).unwrap_err();
+    let err = write(&m, &obj, &WriteOptions { protect: vec![obj.clone()], ..Default::default() })
+        .unwrap_err();
     assert!(err.to_string().contains("refusing to overwrite"), "{err}");
     assert_eq!(std::fs::read(&obj).unwrap(), before);
 
     // Protecting only the MTL that would be written also stops the OBJ.
     let out = dir.path().join("copy.obj");
     std::fs::write(dir.path().join("copy.mtl"), b"keep").unwrap();
-    let err =
-        write(&m, &out, &WriteOptions { protect: vec![dir.path().join("copy.mtl")] }).unwrap_err();
+    let err = write(
+        &m,
+        &out,
+        &WriteOptions { protect: vec![dir.path().join("copy.mtl")], ..Default::default() },
+    )
+    .unwrap_err();
     assert!(err.to_string().contains("copy.mtl"), "{err}");
     assert!(!out.exists());
     assert_eq!(std::fs::read(dir.path().join("copy.mtl")).unwrap(), b"keep");

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 
 use super::lex::split_keyword;
-use super::mtl::{is_map_keyword, join_map_line, parent_dir, split_map_args, texture_reference};
+use super::mtl::{is_map_keyword, join_map_line, parent_dir, split_map_args};
 use super::{GroupMarker, ObjExtras};
 use crate::atomic::{AtomicFile, is_protected};
 use crate::io::{IoError, WriteOptions};
@@ -50,7 +50,7 @@ pub fn write(model: &Model, path: &Path, opts: &WriteOptions) -> Result<(), IoEr
             continue;
         }
         sheet_ref[k] = match &sheet.image {
-            ImageSource::File(p) => texture_reference(p, &dir),
+            ImageSource::File(p) => opts.reference(p, &dir),
             ImageSource::Embedded { mime, bytes, .. } => {
                 let ext = ImageFormat::from_mime(mime)
                     .or_else(|| ImageFormat::from_magic(bytes))
@@ -86,7 +86,7 @@ pub fn write(model: &Model, path: &Path, opts: &WriteOptions) -> Result<(), IoEr
     }
     if with_mtl {
         write_file(&mtl_path, &opts.protect, |w| {
-            write_mtl(w, model, &names, &sheet_ref, extras, &dir)
+            write_mtl(w, model, &names, &sheet_ref, extras, &dir, opts)
         })?;
     }
     write_file(path, &opts.protect, |w| {
@@ -137,6 +137,7 @@ fn write_mtl(
     sheet_ref: &[String],
     extras: Option<&ObjExtras>,
     dir: &Path,
+    write_opts: &WriteOptions,
 ) -> io::Result<()> {
     writeln!(w, "# written by scanatlas")?;
     for (m, name) in model.materials.iter().zip(names) {
@@ -147,7 +148,7 @@ fn write_mtl(
             let (opts, file) = split_map_args(rest);
             if is_map_keyword(&kw.to_ascii_lowercase()) && !file.is_empty() {
                 // Texture maps other than map_Kd were stored resolved: point at them from here.
-                let file = texture_reference(Path::new(&file), dir);
+                let file = write_opts.reference(Path::new(&file), dir);
                 writeln!(w, "{}", join_map_line(&kw, &opts, &file))?;
             } else {
                 writeln!(w, "{line}")?;

@@ -53,7 +53,7 @@ fn texture_files(
     let mut names: Vec<String> = Vec::with_capacity(model.sheets.len());
     for (i, sheet) in model.sheets.iter().enumerate() {
         let name = match &sheet.image {
-            ImageSource::File(p) => crate::io::paths::texture_reference(p, dir),
+            ImageSource::File(p) => opts.reference(p, dir),
             ImageSource::Embedded { name, mime, bytes } => {
                 let format =
                     ImageFormat::from_magic(bytes).or_else(|| ImageFormat::from_mime(mime));

@@ -91,7 +91,7 @@ pub fn run(args: &BatchArgs, global: &GlobalArgs) -> Result<()> {
         all_jobs.into_iter().enumerate().filter(|(i, _)| shard.takes(*i)).map(|(_, j)| j).collect();
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("creating the output folder {}", args.output.display()))?;
-    let threads = global.threads.unwrap_or(resources.threads).max(1);
+    let threads = global.threads.map(usize::from).unwrap_or(resources.threads).max(1);
     let past_peaks = log::read_all(&args.output)?
         .into_iter()
         .filter_map(|e| Some((e.name, e.peak_rss_bytes?)))

@@ -1,0 +1,167 @@
+//! The charts between the merge and the packing: which chart each face packs with, the faces'
+//! 3-D areas, and the changes of topology made on the way (the rigid split, the untangle, the
+//! detachment of clashing faces), handing out the packing's [`LayoutInput`] view.
+
+use super::PipelineError;
+use crate::defrag::{MergedLayout, UntangleOptions, UntangleReport, untangle_charts};
+use crate::model::Model;
+use crate::pack::{LayoutInput, PackOptions, PackedLayout, RigidSplitReport, anchor_faces};
+use crate::plugin::LocalSolver;
+use crate::topology::Topology;
+
+/// The chart of every face for packing (`u32::MAX` for faces left out), with what packing
+/// needs beside it.
+pub(super) struct PackingCharts {
+    pub face_chart: Vec<u32>,
+    /// Number of charts (ids `0..n`).
+    pub n: usize,
+    pub face_area_3d: Vec<f64>,
+    /// Faces left out of packing (no usable UVs or no sheet).
+    pub unpacked: u64,
+    /// The UV vertex of every corner, as plain numbers; rebuilt whenever the topology changes.
+    corner_vert: Vec<u32>,
+}
+
+impl PackingCharts {
+    /// The merged layout's charts; faces without usable UVs or without a sheet are left out.
+    pub fn new(model: &Model, topo: &Topology, layout: &MergedLayout) -> Self {
+        let (face_chart, unpacked) = packing_charts(topo, layout, model.sheets.len());
+        let face_area_3d = model.face_ids().map(|f| area_3d(model, f)).collect();
+        Self { face_chart, n: layout.n_charts, face_area_3d, unpacked, corner_vert: Vec::new() }
+    }
+
+    /// Rebuilds the corner table after a change of topology.
+    fn refresh(&mut self, topo: &Topology) {
+        self.corner_vert = topo.corner_uv.iter().map(|v| v.0).collect();
+    }
+
+    /// The packing stage's view of the charts in `topo`.
+    pub fn layout_input<'a>(
+        &'a mut self,
+        topo: &'a Topology,
+        input_sheet_sizes: &'a [(u32, u32)],
+    ) -> LayoutInput<'a> {
+        self.refresh(topo);
+        layout_input(
+            topo,
+            &self.corner_vert,
+            &self.face_chart,
+            &self.face_area_3d,
+            self.n,
+            input_sheet_sizes,
+        )
+    }
+
+    /// Makes the qualifying rigid groups charts of their own (see `rigid_split`).
+    pub fn split_rigid(
+        &mut self,
+        topo: &mut Topology,
+        input_sheet_sizes: &[(u32, u32)],
+        opts: &PackOptions,
+        border_len: f64,
+    ) -> Result<RigidSplitReport, PipelineError> {
+        super::rigid_split::split_rigid_groups(
+            topo,
+            &mut self.face_chart,
+            &mut self.n,
+            &self.face_area_3d,
+            input_sheet_sizes,
+            opts,
+            border_len,
+        )
+    }
+
+    /// Repairs inherited folds and self-overlaps of the charts, keeping the faces the packing
+    /// would copy verbatim (its anchors) in place.
+    pub fn untangle(
+        &mut self,
+        topo: &mut Topology,
+        input_sheet_sizes: &[(u32, u32)],
+        pack: &PackOptions,
+        solvers: &mut [Box<dyn LocalSolver>],
+        opts: &UntangleOptions,
+    ) -> Result<UntangleReport, PipelineError> {
+        let anchored = anchor_faces(&self.layout_input(topo, input_sheet_sizes), pack)?;
+        Ok(untangle_charts(topo, &self.face_chart, self.n, &anchored, solvers, opts))
+    }
+
+    /// The last resort for texel clashes the sub-texel moves could not separate: one face of
+    /// every such pair becomes a chart of its own. Returns how many faces were detached.
+    pub fn detach_clashes(&mut self, topo: &mut Topology, packed: &PackedLayout) -> usize {
+        let detach = faces_to_detach(packed, topo);
+        for &f in &detach {
+            topo.detach_faces(&[f]);
+            self.face_chart[f as usize] = self.n as u32;
+            self.n += 1;
+        }
+        detach.len()
+    }
+}
+
+/// The chart of each face for packing (`u32::MAX` for faces without usable UVs or without a
+/// sheet, which packing leaves out) and the number of such faces.
+fn packing_charts(t: &Topology, layout: &MergedLayout, n_sheets: usize) -> (Vec<u32>, u64) {
+    let mut unpacked = 0;
+    let chart = (0..t.face_flags.len())
+        .map(|f| {
+            if t.face_flags[f].has_usable_uv() && (t.face_sheet[f] as usize) < n_sheets {
+                layout.face_chart[f]
+            } else {
+                unpacked += 1;
+                u32::MAX
+            }
+        })
+        .collect();
+    (chart, unpacked)
+}
+
+/// One face of every pair the texel-clash step left clashing, to be cut out of its chart: a face
+/// copied verbatim keeps its place (the other is taken), then the smaller UV area goes; a face
+/// already taken settles every pair it is in. In pair order, so the choice is deterministic.
+fn faces_to_detach(packed: &PackedLayout, topo: &Topology) -> Vec<u32> {
+    let area = |f: u32| {
+        let [a, b, c] = [0, 1, 2].map(|k| topo.uv_pos[topo.corner_uv[3 * f as usize + k].idx()]);
+        crate::geometry::signed_area2([a, b, c]).abs()
+    };
+    let mut taken: Vec<u32> = Vec::new();
+    for &[f, g] in &packed.clashing_pairs {
+        if taken.contains(&f) || taken.contains(&g) {
+            continue;
+        }
+        let keep_f = (packed.face_preserved[f as usize], area(f))
+            > (packed.face_preserved[g as usize], area(g));
+        taken.push(if keep_f { g } else { f });
+    }
+    taken
+}
+
+/// The packing stage's view of the merged layout in `topo`.
+pub(super) fn layout_input<'a>(
+    topo: &'a Topology,
+    corner_vert: &'a [u32],
+    face_chart: &'a [u32],
+    face_area_3d: &'a [f64],
+    n_charts: usize,
+    input_sheet_sizes: &'a [(u32, u32)],
+) -> LayoutInput<'a> {
+    LayoutInput {
+        corner_vert,
+        vert_uv: &topo.uv_pos,
+        orig_uv: &topo.orig_uv,
+        face_chart,
+        face_sheet: &topo.face_sheet,
+        face_area_3d,
+        n_charts,
+        input_sheet_sizes,
+    }
+}
+
+/// The 3D area of a face (relative to its first corner, so georeferenced offsets cost no
+/// precision).
+fn area_3d(model: &Model, f: crate::index::FaceId) -> f64 {
+    let [a, b, c] = model.face_positions(f);
+    let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+    let n = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
+    0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt()
+}

@@ -1,0 +1,143 @@
+//! The emit stage of `defrag`: the output sheets resampled from the input's into the staging
+//! folder, and the output model pointing at them.
+
+use std::time::Instant;
+
+use super::PipelineError;
+use super::context::RunContext;
+use super::decode_ahead::DecodeAhead;
+use super::defrag::DefragConfig;
+use crate::index::{MaterialId, UvId};
+use crate::model::Model;
+use crate::pack::PackedLayout;
+use crate::texture::coords::texel_to_uv;
+use crate::texture::encode::EncodeOptions;
+use crate::texture::gutter::MAX_RADIUS;
+use crate::texture::resample::{FaceMapping, ResampleOptions, ResampleReport, resample_sheets};
+use crate::texture::{ImageFormat, TileStore};
+use crate::topology::Topology;
+use std::path::PathBuf;
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+/// Takes the input sheets from `decoding`, resamples the packed layout and writes the output
+/// sheets.
+/// Returns the written sheet paths (in output sheet order) and the resample report.
+pub(super) fn synthesize(
+    t: &Topology,
+    face_chart: &[u32],
+    packed: &PackedLayout,
+    decoding: DecodeAhead,
+    format: ImageFormat,
+    cfg: &DefragConfig,
+    ctx: &RunContext,
+) -> Result<(Vec<PathBuf>, Option<ResampleReport>), PipelineError> {
+    if packed.sheet_sizes.is_empty() {
+        return Ok((Vec::new(), None));
+    }
+    let mut mappings = Vec::with_capacity(face_chart.len());
+    for (f, &chart) in face_chart.iter().enumerate() {
+        if chart == u32::MAX {
+            continue;
+        }
+        let corner = |k: usize| t.corner_uv[3 * f + k].idx();
+        let exact = if packed.face_preserved[f] {
+            packed.chart_transform.get(chart as usize).copied().flatten()
+        } else {
+            None
+        };
+        mappings.push(FaceMapping {
+            dst_sheet: packed.face_sheet[f],
+            dst: [0, 1, 2].map(|k| packed.vert_uv[corner(k)]),
+            src_sheet: t.face_sheet[f],
+            src: [0, 1, 2].map(|k| t.orig_uv[3 * f + k]),
+            exact,
+        });
+    }
+    // Each input sheet is decoded once into a disk-backed tile store (deleted on drop), by the
+    // decode started after loading.
+    let decoded = decoding.finish()?;
+    let inputs: Vec<TileStore> = decoded.stores;
+    let input_refs: Vec<&TileStore> = inputs.iter().collect();
+    let opts = ResampleOptions {
+        dilate: cfg.pack.padding.clamp(1, MAX_RADIUS),
+        push_pull: true,
+        work_dir: ctx.work_dir().to_path_buf(),
+    };
+    let mut out = resample_sheets(&input_refs, &mappings, &packed.sheet_sizes, &opts)?;
+    drop(inputs);
+    let t = Instant::now();
+    let enc = EncodeOptions {
+        format: Some(format),
+        jpeg_quality: cfg.jpeg_quality,
+        webp_quality: cfg.lossy_webp.then_some(cfg.jpeg_quality),
+        protect: ctx.protected().to_vec(),
+    };
+    let paths = super::convert::write_sheets(&out.sheets, &ctx.staged_output(), format, &enc)?;
+    out.report.ms_encode = ms(t);
+    (out.report.ms_decode, out.report.ms_decode_wait) = (decoded.decode_ms, decoded.wait_ms);
+    Ok((paths, Some(out.report)))
+}
+
+/// The output model: the input's positions, normals and faces in input order, one UV record per
+/// output UV vertex (normalized by its output sheet's size), one material per output sheet.
+///
+/// The input's `origin` is kept. For glTF this means the output is written back into the input
+/// document: write-back keeps nodes and their transforms, replaces the base-colour textures and
+/// images by one per current sheet, adds a material for every material beyond the file's, and
+/// splits primitives whose faces now use several materials; it falls back to a fresh document by
+/// itself when the faces no longer map onto the original primitives (they always do here: faces
+/// and positions are unchanged). OBJ and PLY origins only carry grouping and header extras that
+/// stay valid for the same faces; writers of another format ignore a foreign origin.
+pub(super) fn packed_model(
+    model: &Model,
+    t: &Topology,
+    face_chart: &[u32],
+    packed: &PackedLayout,
+    sheet_paths: &[PathBuf],
+) -> Model {
+    let mut out = model.clone();
+    super::set_atlas_sheets(&mut out, sheet_paths, &packed.sheet_sizes);
+    let mut uvs: Vec<[f64; 2]> = Vec::with_capacity(t.uv_pos.len());
+    let mut new_id = vec![u32::MAX; t.uv_pos.len()];
+    let mut zero_uv: Option<UvId> = None;
+    for (f, face) in out.faces.iter_mut().enumerate() {
+        let chart = face_chart[f];
+        if chart == u32::MAX || out.sheets.is_empty() {
+            // Left out of packing: faces without UVs keep none; the others get UV (0, 0) on
+            // sheet 0, so every output UV stays inside the unit square.
+            match face.uv {
+                Some(_) if !out.sheets.is_empty() => {
+                    let id = *zero_uv.get_or_insert_with(|| {
+                        uvs.push([0.0, 0.0]);
+                        UvId::from_usize(uvs.len() - 1)
+                    });
+                    face.uv = Some([id; 3]);
+                    face.material = Some(MaterialId::from_usize(0));
+                }
+                _ => {
+                    face.uv = None;
+                    face.material = None;
+                }
+            }
+            continue;
+        }
+        let sheet = packed.face_sheet[f] as usize;
+        let (w, h) = packed.sheet_sizes[sheet];
+        let mut ids = [UvId(0); 3];
+        for (k, id) in ids.iter_mut().enumerate() {
+            let v = t.corner_uv[3 * f + k].idx();
+            if new_id[v] == u32::MAX {
+                new_id[v] = uvs.len() as u32;
+                uvs.push(texel_to_uv(packed.vert_uv[v], w, h));
+            }
+            *id = UvId(new_id[v]);
+        }
+        face.uv = Some(ids);
+        face.material = Some(MaterialId::from_usize(sheet));
+    }
+    out.uvs = uvs;
+    out
+}
