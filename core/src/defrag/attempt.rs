@@ -127,8 +127,8 @@ impl Engine<'_> {
     ) -> (Result<OpGeometry, RejectReason>, Option<CommitRecord>) {
         // An inter-chart merge is tried first with the staying chart held still (see
         // `MergeOptions::one_sided`), then as the paper does; a retry of a failed operation only
-        // as the paper does (venus: a retried one-sided attempt rarely passes where the first
-        // failed, and costs a solve).
+        // as the paper does: a retried one-sided attempt rarely passes where the first failed,
+        // and costs a solve.
         let one_sided =
             self.opts.one_sided && self.ops[op as usize].failures == 0 && self.op_is_inter(op);
         let mut sides = if one_sided { &[true, false][..] } else { &[false][..] };
@@ -442,8 +442,7 @@ impl Engine<'_> {
     /// The first solve of an attempt. A deferred operation's attempt in the second pass often
     /// builds the very problem its first-pass attempt solved (neither chart changed since): the
     /// solver is deterministic, so its answer is taken from the memo instead of solved again
-    /// (venus: 305 deferred operations, most of them large patches, took the merge from 6.2 to
-    /// 7.9 s before). The whole starting problem is compared bit for bit, so the result is the
+    /// (deferred operations are mostly large patches, whose second solve was costly). The whole starting problem is compared bit for bit, so the result is the
     /// one a solve would give, whichever engine holds the memo. In the first pass, the solve of
     /// every attempt on both sides is kept until the outcome says whether it was deferred.
     fn first_solve(
@@ -617,10 +616,9 @@ impl Engine<'_> {
     /// Whether a triangle of the problem with all three vertices fixed fails the fold check in
     /// the starting layout. No step of the attempt can then pass: the solver and the separation
     /// move free vertices only, the checks before the overlap test run on every layout, and the
-    /// fold check comes before it, so the area is never grown either. Venus `--merge-only
-    /// --serial`: 555 attempts of this kind, none of which passed, took 0.15 s of solving and
-    /// checking (most of them one-sided merges, whose fused seam is held where the staying chart
-    /// has it, followed by the merge on both sides).
+    /// fold check comes before it, so the area is never grown either. Such attempts are mostly
+    /// one-sided merges, whose fused seam is held where the staying chart has it, followed by the
+    /// merge on both sides; stopping them early saves their solving and checking.
     pub(super) fn fold_fixed_for_good(&self) -> bool {
         let p = &self.problem;
         p.triangles.iter().zip(&self.problem_faces).any(|(t, &f)| {
@@ -643,11 +641,10 @@ impl Engine<'_> {
     /// first pass of a deferring queue (see `MergeOptions::defer`), and two paths off the
     /// paper's plain one are rationed in both passes. Holding a chart still puts all the distortion on
     /// the other side, which costs more energy than the paper's patch over both; where the
-    /// budget is what stops the merging (meshroom), unbounded one-sided merges spend it early
-    /// and end with fewer merges (solidity 0.093 against 0.108). A rescue's layout passes the
-    /// local check but may be far from the solver's optimum: one rescue on meshroom took 17% of
-    /// the whole budget (36 fair shares) for 0.6% of the border, and rationing rescues took the
-    /// merged border from 29.3k to 28.6k texels. The test reads no atlas-wide sum, so it holds in
+    /// budget is what stops the merging, unbounded one-sided merges spend it early and end with
+    /// fewer merges. A rescue's layout passes the local check but may be far from the solver's
+    /// optimum: a single rescue can take a large share of the whole budget for a sliver of the
+    /// border, and rationing rescues shortens the merged border. The test reads no atlas-wide sum, so it holds in
     /// every cluster and in any order of commits.
     fn over_ration(&self, g: &OpGeometry, delta: f64) -> bool {
         let r = self.opts.energy_ration;
@@ -700,7 +697,7 @@ impl Engine<'_> {
     ///
     /// A pair that already overlapped in the fused starting layout is left free: frozen at that
     /// layout it would overlap in every rerun, so freezing it could only doom the attempt. (On
-    /// venus about nine in ten overlap rejections are of this kind: the fused layout needs more
+    /// real scans most overlap rejections are of this kind: the fused layout needs more
     /// distortion than the solver's energy asks for.)
     fn freeze_offenders(&mut self) -> bool {
         let mut grew = false;
@@ -722,9 +719,8 @@ impl Engine<'_> {
     ///
     /// Most overlap rejections start from a fused layout that overlaps already (a chart fused
     /// into a notch a little too narrow for it). Freezing cannot help those, but a solve with
-    /// more room often spreads the distortion enough to clear them: on venus one growth takes
-    /// the serial merge from 578 to 557 charts for 11% more merge time (a second one: 552 charts,
-    /// 53% more).
+    /// more room often spreads the distortion enough to clear them. One growth is worth its
+    /// time; a second one gains little more and costs much more.
     fn grow_area(&mut self, g: &OpGeometry) -> bool {
         for (i, &v) in self.local_verts.iter().enumerate() {
             self.log.pos.set(&mut self.t.uv_pos, v as usize, self.start_uv[i]);

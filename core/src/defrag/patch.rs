@@ -99,7 +99,7 @@ impl Engine<'_> {
             // The faces on the seam changed shape when it was fused, even those with no free
             // vertex: the moving chart's always, the held chart's where a group held two of its
             // vertices (a slit closing at the seam's end), which meet at their mean. They are
-            // judged and booked with the area too (venus: 7 new overlapping pairs otherwise).
+            // judged and booked with the area too, or their moves would leave new overlaps.
             for i in 0..self.seeds.len() {
                 self.add_fan_to_area(self.seeds[i].0);
             }
@@ -135,9 +135,8 @@ impl Engine<'_> {
             // A face with two corners at one 3-D position (frozen as degenerate, and carried
             // along with its chart) has two corners on one UV vertex: it stays a segment wherever
             // its vertices go, has no area to keep and no energy, and as a triangle of the patch
-            // it would make the patch's topology fail. Venus has 2,634 such faces; before, every
-            // merge whose area reached one was refused (147 of 159 topology refusals of the
-            // serial venus merge).
+            // it would make the patch's topology fail. Photogrammetry meshes hold many such
+            // faces, and without this rule every merge whose area reached one was refused.
             let c = |k: usize| self.t.corner_uv[3 * f as usize + k].0;
             if c(0) == c(1) || c(1) == c(2) || c(0) == c(2) {
                 continue;

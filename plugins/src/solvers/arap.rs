@@ -56,9 +56,9 @@ pub const STALL_LIMIT: u32 = 10;
 
 /// A solve that still has triangles out of their expected orientation stops once this many
 /// iterations in a row have undone none of them. Such a solve ends in a rejected merge (the
-/// engine's fold check), so going on only burns time: on venus, solves left with folds took 58% of
-/// all triangle-iterations, while of the 1,382 solves that undid every fold only 3 went more than
-/// 20 iterations between two undone folds (and 99% undid their last one by iteration 17).
+/// engine's fold check), so going on only burns time: solves left with folds take a large share
+/// of all iterations, while the solves that undo every fold almost never go this long between
+/// two undone folds.
 pub const UNFOLD_PATIENCE: u32 = 20;
 
 /// Up to this many free vertices the factorization is forced to be simplicial (see `solve`).
@@ -159,9 +159,8 @@ struct TriData {
 /// total signed area), for every triangle. A triangle folded in the ORIGINAL layout is expected
 /// unfolded too, as the reference's orientation-free frames have it: the reflection-invariant
 /// energy calls the folded copy perfect, but a fold on a seam overlaps the chart fused across it.
-/// Keeping such folds (as we did before 2026-12-05) made 299 of meshroom's 336 overlap refusals
-/// (nearly all of them on a face folded in the input), and unfolding them halved the refusals
-/// and took the merge from 1.9 to 0.8 s.
+/// Keeping such folds made most of the overlap refusals on scans with faces folded in the input,
+/// and unfolding them halves those refusals and shortens the merge.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) struct OrientationState {
     patch: i8,

@@ -176,8 +176,8 @@ pub(super) fn defects(
 ) {
     pairs.clear();
     folds.clear();
-    // Pairs within the anchor group are never repaired, so they are not even tested (most of
-    // the search time on venus, whose anchor groups hold two thirds of its faces).
+    // Pairs within the anchor group are never repaired, so they are not even tested: anchor
+    // groups usually hold most of a chart's faces, and so most of the search time.
     overlapping_pairs(t, pos, faces, anchored, |f, g| pairs.push((f, g)));
     pairs.sort_unstable();
     for &f in faces {

@@ -376,7 +376,7 @@ impl jpeg_encoder::ImageBuffer for StoreRows<'_> {
 }
 
 /// The most MCU rows of one strip of a parallel encode (see [`encode`]): 512 rows of a 4:4:4
-/// image, so that venus's 3313-row output sheet splits into seven strips.
+/// image, so that a 4096-row sheet splits into eight strips that two cores share evenly.
 const MAX_STRIP_MCU_ROWS: u32 = 64;
 
 /// Strips encoded side by side and held (compressed) before they are written, so that memory
@@ -386,7 +386,7 @@ const STRIPS_PER_BATCH: usize = 8;
 /// Writes `store` as a baseline JPEG of `quality` (1..=100) to `w`.
 ///
 /// `jpeg-encoder` is single-threaded, and the sheet encode was the last single-threaded step of
-/// a defrag run (venus: 0.32 s for 13.5 MP with the second core idle). The image is cut into strips
+/// a defrag run, with the second core idle. The image is cut into strips
 /// of whole MCU rows, each encoded on its own (in parallel, in batches), and the strips' scans
 /// are joined with restart markers (the restart interval is one strip): a restart resets the DC
 /// predictions exactly as a fresh encoder starts, so the file decodes to the same pixels as a
