@@ -114,6 +114,15 @@ fn a_broken_model_fails_alone_and_a_rerun_skips_the_finished_ones() {
         assert_eq!(statuses(&out)[&name].last().unwrap(), "ok", "{name}");
     }
 
+    // A global switch reaches every model's process (and, changing the options, redoes them).
+    let strict = scanatlas(&["--strict", "batch", s(&input), "-o", s(&out), "--padding", "3"]);
+    assert_eq!(strict.status.code(), Some(1));
+    let args_of = |name: &str| std::fs::read_to_string(out.join(name).join("report.json")).unwrap();
+    for name in model_names(&input) {
+        assert_eq!(statuses(&out)[&name].last().unwrap(), "ok", "{name}");
+        assert!(args_of(&name).contains("\"pack_options\""), "{name}");
+    }
+
     let summary = scanatlas(&["batch-summary", s(&out), "--json"]);
     assert_eq!(summary.status.code(), Some(1), "a failed model makes the summary fail");
     let json: Value = serde_json::from_slice(&summary.stdout).unwrap();

@@ -84,7 +84,14 @@ pub fn run(args: &BatchArgs, global: &GlobalArgs) -> Result<()> {
         Some(text) => cgroup::parse_bytes(text).map_err(usage)?,
         None => resources.memory_bytes,
     };
-    let cli_options = plan::parse_cli_options(&args.defrag_options)?;
+    let mut cli_options = plan::parse_cli_options(&args.defrag_options)?;
+    // `scanatlas --strict batch …` means every model strict (and `--confine` every model
+    // confined): the model processes get the switches, and the records count them as options.
+    for (name, on) in plan::PASSED_ON.iter().zip([global.strict, global.confine]) {
+        if on {
+            cli_options.insert((*name).to_string(), None);
+        }
+    }
     let all_jobs = manifest::discover(&args.input, &args.output)?;
     plan::check_all(&all_jobs, &cli_options, &args.output)?;
     let jobs: Vec<Job> =

@@ -18,6 +18,9 @@ use crate::commands::UsageError;
 const RESERVED: [&str; 9] =
     ["output", "report", "threads", "quiet", "verbose", "mesh", "cameras", "images", "help"];
 
+/// Global switches of the batch that each model's process gets too, `build` ones included.
+pub const PASSED_ON: [&str; 2] = ["strict", "confine"];
+
 /// The report file in each model's folder.
 pub const REPORT_FILE: &str = "report.json";
 
@@ -107,7 +110,13 @@ pub fn plan(job: &Job, cli_options: &Options, dir: &Path, threads: usize) -> Res
             for (flag, path) in [("--mesh", mesh), ("--cameras", cameras), ("--images", images)] {
                 args.extend([flag.to_string(), path.to_string_lossy().into_owned()]);
             }
-            job.options.clone()
+            let mut merged: Options = cli_options
+                .iter()
+                .filter(|(name, _)| PASSED_ON.contains(&name.as_str()))
+                .map(|(name, value)| (name.clone(), value.clone()))
+                .collect();
+            merged.extend(job.options.clone());
+            merged
         }
     };
     args.extend(["-o".into(), model, "--report".into(), report]);
@@ -202,5 +211,20 @@ mod tests {
         // Threads never change the outputs, so never the hash.
         let again = plan(&job(Options::new()), &cli, Path::new("out/a"), 8).unwrap();
         assert_eq!(base.options_hash, again.options_hash);
+    }
+
+    #[test]
+    fn global_switches_reach_build_jobs_but_defrag_options_do_not() {
+        let mut cli = parse_cli_options(&tokens("--padding 2")).unwrap();
+        cli.insert("strict".into(), None);
+        let job = Job {
+            name: "b".into(),
+            kind: Kind::Build { mesh: "m.ply".into(), cameras: "c".into(), images: "i".into() },
+            model_file: "model.obj".into(),
+            options: Options::new(),
+        };
+        let planned = plan(&job, &cli, Path::new("out/b"), 1).unwrap();
+        assert!(planned.args.contains(&"--strict".to_string()));
+        assert!(!planned.args.iter().any(|a| a.starts_with("--padding")));
     }
 }
