@@ -77,7 +77,7 @@ pub fn fidelity(
         }
         cdf.push(total);
     }
-    if !(total > 0.0) || samples == 0 {
+    if total.is_nan() || total <= 0.0 || samples == 0 {
         return ColourFidelity::default();
     }
     let chunks = samples.div_ceil(CHUNK);

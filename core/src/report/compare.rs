@@ -109,7 +109,7 @@ pub fn check_same_mesh(before: &Model, after: &Model) -> Result<(), ReportError>
             before.face_positions(FaceId::from_usize(f)),
             after.face_positions(FaceId::from_usize(f)),
         );
-        (0..3).any(|k| (0..3).any(|c| !((p[k][c] - q[k][c]).abs() <= tol)))
+        (0..3).any(|k| (0..3).any(|c| far(p[k][c], q[k][c], tol)))
     });
     match moved {
         Some(f) => Err(ReportError::NotSameMesh(format!(
@@ -117,6 +117,12 @@ pub fn check_same_mesh(before: &Model, after: &Model) -> Result<(), ReportError>
         ))),
         None => Ok(()),
     }
+}
+
+/// Whether two coordinates differ by more than `tol` (or are not comparable).
+fn far(a: f64, b: f64, tol: f64) -> bool {
+    let d = (a - b).abs();
+    d.is_nan() || d > tol
 }
 
 fn bbox_diagonal(model: &Model) -> f64 {

@@ -184,7 +184,7 @@ fn defects(f: &Figures) -> String {
     if let Some(o) = a.overlap_texels.filter(|&o| o > 0) {
         s.push(format!("overlapping texels {}{o}", before(b.and_then(|b| b.overlap_texels))));
     }
-    let verdict = if flips_fine && overlaps_fine { " (no new ones)" } else { "" };
+    let verdict = if flips_fine && overlaps_fine { " (fewer than in the input)" } else { "" };
     s.join(", ") + verdict
 }
 

@@ -145,9 +145,11 @@ pub fn size_bins(sizes: &[u32]) -> Vec<u64> {
 
 /// The name of size bin `k`: its range of faces per chart.
 pub fn size_bin_name(k: usize) -> String {
+    let short = |n: u64| if n >= 1024 { format!("{}k", n / 1024) } else { n.to_string() };
     match k {
         0 => "1".into(),
         1 => "2-3".into(),
+        k if k >= 10 => format!("{}-{}", short(1 << k), short(1 << (k + 1))),
         _ => format!("{}-{}", 1u64 << k, (1u64 << (k + 1)) - 1),
     }
 }
