@@ -20,6 +20,7 @@ pub mod plugin;
 pub mod synth;
 pub mod texture;
 pub mod topology;
+pub mod union_find;
 
 pub use index::{FaceId, MaterialId, NormalId, SheetId, UvId, VertexId};
 pub use model::{Face, ImageSource, Material, Model, ModelFormat, Sheet};
