@@ -23,6 +23,7 @@ pub mod report;
 pub mod synth;
 pub mod texture;
 pub mod topology;
+pub mod union_find;
 pub mod warnings;
 
 pub use index::{FaceId, MaterialId, NormalId, SheetId, UvId, VertexId};

@@ -8,26 +8,7 @@ use super::ops::dist;
 use super::state::{Engine, NONE, OrdF64, orig_tri};
 use crate::geometry::signed_area2;
 
-/// Union-find root with path halving.
-#[inline]
-pub(crate) fn find(parent: &mut [u32], mut x: u32) -> u32 {
-    while parent[x as usize] != x {
-        let p = parent[parent[x as usize] as usize];
-        parent[x as usize] = p;
-        x = p;
-    }
-    x
-}
-
-/// Joins the sets of `a` and `b`, keeping the smaller root (order independent).
-#[inline]
-pub(crate) fn union(parent: &mut [u32], a: u32, b: u32) {
-    let (ra, rb) = (find(parent, a), find(parent, b));
-    if ra != rb {
-        let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
-        parent[hi as usize] = lo;
-    }
-}
+pub(crate) use crate::union_find::{find, union};
 
 impl Engine<'_> {
     /// Whether vertex `v` is free in the current attempt.

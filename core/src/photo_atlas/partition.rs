@@ -405,13 +405,7 @@ pub fn flood_partition<M: Metric + ?Sized>(adj: &[[u32; 3]], m: &M, max_rounds: 
     // every seed is a chart. Merge adjacent charts with the same label (union-find).
     let n = seeds.len();
     let mut parent: Vec<u32> = (0..n as u32).collect();
-    fn find(p: &mut [u32], mut x: u32) -> u32 {
-        while p[x as usize] != x {
-            p[x as usize] = p[p[x as usize] as usize];
-            x = p[x as usize];
-        }
-        x
-    }
+    use crate::union_find::find;
     for f in 0..nf {
         let a = chart[f];
         if a == NONE {

@@ -6,6 +6,7 @@ use faer::dyn_stack::MemBuffer;
 use scanatlas_core::plugin::{LocalProblem, SolveError};
 
 use scanatlas_core::index::NONE;
+use scanatlas_core::union_find::find;
 
 /// Buffers shared by `arap` and `slim`; sizes follow the problem at hand.
 #[derive(Default)]
@@ -81,13 +82,4 @@ impl Workspace {
         }
         Ok(())
     }
-}
-
-fn find(parent: &mut [u32], mut x: u32) -> u32 {
-    while parent[x as usize] != x {
-        let p = parent[x as usize];
-        parent[x as usize] = parent[p as usize];
-        x = p;
-    }
-    x
 }

@@ -3,6 +3,7 @@
 
 use crate::geometry::{Tri2, signed_area2, triangles_overlap_beyond_noise};
 use crate::topology::Topology;
+pub(super) use crate::union_find::find as root;
 
 use super::super::DEGENERATE_AREA2;
 
@@ -185,13 +186,4 @@ pub(super) fn defects(
             folds.push(f);
         }
     }
-}
-
-/// Union-find root with path halving.
-pub(super) fn root(uf: &mut [u32], mut x: u32) -> u32 {
-    while uf[x as usize] != x {
-        uf[x as usize] = uf[uf[x as usize] as usize];
-        x = uf[x as usize];
-    }
-    x
 }
