@@ -11,6 +11,8 @@ fi
 "$venv/bin/pip" install --quiet --upgrade pip
 "$venv/bin/pip" install --quiet "maturin>=1.7,<2" pytest
 # The package's own target folder, kept between runs (it is not part of the workspace's).
+# maturin runs as a subprocess of pip, found on PATH.
+export PATH="$venv/bin:$PATH"
 export CARGO_TARGET_DIR="${SCANATLAS_PY_TARGET:-$root/target/python}"
 echo "== pip install ./python"
 start=$(date +%s)

@@ -54,7 +54,7 @@ fn py_err(e: PipelineError) -> PyErr {
 }
 
 /// Turns keyword options into command-line arguments of `subcommand`: `name=value` becomes
-/// `--name value` (underscores as hyphens), `True` the bare flag, `False` and `None` nothing, a
+/// `--name=value` (underscores as hyphens), `True` the bare flag, `False` and `None` nothing, a
 /// pair `(w, h)` `WxH`. Every name is checked against the subcommand's options, so a misspelt
 /// one is a `ValueError` listing the valid names, whatever its value.
 fn option_args(subcommand: &str, options: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<OsString>> {
@@ -86,14 +86,16 @@ fn option_args(subcommand: &str, options: Option<&Bound<'_, PyDict>>) -> PyResul
             }
             continue;
         }
-        out.push(flag.into());
-        if let Ok(t) = value.cast::<PyTuple>() {
-            let parts: Vec<String> =
-                t.iter().map(|x| x.str().map(|s| s.to_string())).collect::<PyResult<_>>()?;
-            out.push(parts.join("x").into());
-        } else {
-            out.push(value.str()?.to_string().into());
-        }
+        // `--name=value`, so that a negative number is taken as the value, not as a flag.
+        let text = match value.cast::<PyTuple>() {
+            Ok(t) => t
+                .iter()
+                .map(|x| x.str().map(|s| s.to_string()))
+                .collect::<PyResult<Vec<_>>>()?
+                .join("x"),
+            Err(_) => value.str()?.to_string(),
+        };
+        out.push(format!("{flag}={text}").into());
     }
     Ok(out)
 }

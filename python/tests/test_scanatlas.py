@@ -122,7 +122,7 @@ def test_bad_models_are_model_errors(tmp_path: Path):
 
 def test_the_input_is_never_overwritten(scan: Path):
     before = scan.read_bytes()
-    with pytest.raises(OSError):
+    with pytest.raises(ValueError, match="is the input"):
         scanatlas.defrag(scan, scan)
     assert scan.read_bytes() == before
 

@@ -513,3 +513,36 @@ fn defrag_help_is_grouped_with_examples() {
     assert!(section("Experiments:").contains("--cluster-faces"));
     assert_eq!(help.matches("scanatlas defrag ").count(), 2, "two examples:\n{help}");
 }
+
+#[test]
+fn webp_sheets_are_written_read_and_referenced_through_the_gltf_extension() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(d, "m.mtl", b"newmtl a\nmap_Kd t.png\n");
+    write(d, "t.png", &tiny_png());
+    write(d, "q.obj", QUAD_OBJ.as_bytes());
+    for (format, name) in [("webp", "l"), ("webp-lossy", "y")] {
+        let out = scanatlas(
+            &["convert", "q.obj", "-o", &format!("{name}/q.gltf"), "--texture-format", format],
+            d,
+        );
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let doc: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join(name).join("q.gltf")).unwrap()).unwrap();
+        assert_eq!(doc["extensionsRequired"], serde_json::json!(["EXT_texture_webp"]), "{doc}");
+        let texture = &doc["textures"][0];
+        assert!(texture.get("source").is_none(), "{texture}");
+        let image = texture["extensions"]["EXT_texture_webp"]["source"].as_u64().unwrap();
+        let uri = doc["images"][image as usize]["uri"].as_str().unwrap();
+        let bytes = std::fs::read(d.join(name).join(uri)).unwrap();
+        assert!(bytes.starts_with(b"RIFF") && &bytes[8..12] == b"WEBP");
+        // The written model reads back, WebP sheet included.
+        let out = scanatlas(&["stats", &format!("{name}/q.gltf"), "--json"], d);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(stats["texture_sizes"][0]["width"], 2, "{stats}");
+    }
+    // The lossless sheet holds the PNG's pixels exactly: converting back gives the same PNG data.
+    let out = scanatlas(&["convert", "l/q.gltf", "-o", "p/q.obj", "--texture-format", "png"], d);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}

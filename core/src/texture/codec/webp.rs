@@ -148,3 +148,133 @@ fn gray_to_colour(px: &[u8], sample: SampleType, in_channels: usize, dst: &mut [
         dst[3] = sample8(px, sample, 1);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use crate::model::ImageSource;
+    use crate::texture::decode::{decode_to_store, probe_size};
+    use crate::texture::encode::{EncodeOptions, write_image};
+    use crate::texture::{ImageFormat, PixelFormat, SampleType, TextureError, TileStore};
+
+    const W: u32 = 301;
+    const H: u32 = 259;
+
+    /// A store of smooth gradients with a little structure (lossy coding has something real to
+    /// do) and a low-bit wobble (an exact comparison catches off-by-one mistakes).
+    fn pattern(dir: &Path, channels: u8, sample: SampleType) -> TileStore {
+        let f = PixelFormat { channels, sample };
+        let mut s = TileStore::create(dir, W, H, f).unwrap();
+        let mut row = vec![0u8; W as usize * f.bytes_per_pixel()];
+        for y in 0..H {
+            for x in 0..W {
+                for c in 0..channels as usize {
+                    let v = match c {
+                        0 => x as f64 / W as f64,
+                        1 => y as f64 / H as f64,
+                        2 => 0.5 + 0.4 * ((x as f64 * 0.07).sin() * (y as f64 * 0.05).cos()),
+                        _ => 1.0 - 0.5 * (x * y) as f64 / (W * H) as f64,
+                    };
+                    let k = x as usize * channels as usize + c;
+                    let wobble = (x * 7 + y * 3 + c as u32) % 5;
+                    match sample {
+                        SampleType::U16 => {
+                            let s = (v * 65000.0) as u16;
+                            row[2 * k..2 * k + 2].copy_from_slice(&s.to_ne_bytes());
+                        }
+                        _ => row[k] = ((v * 250.0) as u32 + wobble) as u8,
+                    }
+                }
+            }
+            s.write_row(y, 0, &row);
+        }
+        s
+    }
+
+    fn pixels(s: &TileStore) -> Vec<u8> {
+        let mut out = vec![0u8; s.width() as usize * s.format().bytes_per_pixel()];
+        let mut all = Vec::new();
+        for y in 0..s.height() {
+            s.read_row(y, 0, &mut out);
+            all.extend_from_slice(&out);
+        }
+        all
+    }
+
+    fn write(store: &TileStore, path: &Path, quality: Option<u8>) -> Vec<u8> {
+        let opts = EncodeOptions { webp_quality: quality, ..Default::default() };
+        write_image(store, path, &opts).unwrap();
+        assert_eq!(ImageFormat::from_path(path), Some(ImageFormat::Webp));
+        std::fs::read(path).unwrap()
+    }
+
+    fn read(path: &Path, dir: &Path) -> TileStore {
+        let src = ImageSource::File(path.to_path_buf());
+        assert_eq!(probe_size(&src).unwrap(), (W, H));
+        decode_to_store(&src, dir).unwrap()
+    }
+
+    #[test]
+    fn lossless_webp_round_trips_exactly_and_deterministically() {
+        let dir = tempfile::tempdir().unwrap();
+        for channels in [3, 4] {
+            let src = pattern(dir.path(), channels, SampleType::U8);
+            let path = dir.path().join(format!("l{channels}.webp"));
+            let bytes = write(&src, &path, None);
+            let back = read(&path, dir.path());
+            assert_eq!(back.format(), src.format());
+            assert!(pixels(&back) == pixels(&src), "{channels} channels differ");
+            let again = write(&src, &dir.path().join(format!("m{channels}.webp")), None);
+            assert!(bytes == again, "lossless WebP is not deterministic");
+        }
+        // Gray is kept exactly and reads back as RGB with equal channels.
+        let gray = pattern(dir.path(), 1, SampleType::U8);
+        let path = dir.path().join("g.webp");
+        write(&gray, &path, None);
+        let back = read(&path, dir.path());
+        assert_eq!(back.format(), PixelFormat::RGB8);
+        let (g, rgb) = (pixels(&gray), pixels(&back));
+        assert!(g.iter().zip(rgb.chunks_exact(3)).all(|(v, p)| p == [*v, *v, *v]));
+    }
+
+    #[test]
+    fn lossy_webp_is_close_deterministic_and_keeps_alpha() {
+        let dir = tempfile::tempdir().unwrap();
+        for (channels, sample) in [(3, SampleType::U8), (4, SampleType::U8), (3, SampleType::U16)] {
+            let src = pattern(dir.path(), channels, sample);
+            let path = dir.path().join(format!("q{channels}{sample:?}.webp"));
+            let bytes = write(&src, &path, Some(90));
+            let again = write(&src, &dir.path().join("again.webp"), Some(90));
+            assert!(bytes == again, "lossy WebP is not deterministic");
+            let back = read(&path, dir.path());
+            assert_eq!(back.format(), PixelFormat { channels, sample: SampleType::U8 });
+            let want: Vec<f64> = match sample {
+                SampleType::U16 => pixels(&src)
+                    .chunks_exact(2)
+                    .map(|b| {
+                        (f64::from(u16::from_ne_bytes([b[0], b[1]])) * 255.0 / 65535.0).round()
+                    })
+                    .collect(),
+                _ => pixels(&src).iter().map(|&b| f64::from(b)).collect(),
+            };
+            let got: Vec<f64> = pixels(&back).iter().map(|&b| f64::from(b)).collect();
+            let mse = want.iter().zip(&got).map(|(a, b)| (a - b) * (a - b)).sum::<f64>()
+                / want.len() as f64;
+            let psnr = 10.0 * (255.0 * 255.0 / mse.max(1e-12)).log10();
+            assert!(psnr > 32.0, "{channels} {sample:?}: PSNR {psnr:.1} dB");
+        }
+    }
+
+    #[test]
+    fn sheets_over_the_webp_limit_are_refused_before_writing() {
+        let dir = tempfile::tempdir().unwrap();
+        let wide =
+            TileStore::create(dir.path(), super::MAX_SIDE + 1, 1, PixelFormat::RGB8).unwrap();
+        let path = dir.path().join("wide.webp");
+        let err = write_image(&wide, &path, &EncodeOptions::default()).unwrap_err();
+        assert!(matches!(err, TextureError::Size { .. }), "{err}");
+        assert!(err.to_string().contains("16383"), "{err}");
+        assert!(!path.exists());
+    }
+}
