@@ -25,4 +25,4 @@ fi
 echo "== report in headless chromium ($browser)"
 # --workspace, as in .ci/run, so the dependencies' features unify and nothing is rebuilt.
 SCANATLAS_CHROMIUM="$browser" \
-  cargo test --workspace --test report_browser -- --ignored --test-threads=1
+  cargo test --release --test report_browser -- --ignored --test-threads=1
