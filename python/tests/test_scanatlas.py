@@ -130,7 +130,8 @@ def test_the_input_is_never_overwritten(scan: Path):
 def test_build_refuses_bad_options_and_missing_cameras(scan: Path, tmp_path: Path):
     with pytest.raises(ValueError, match="no_such"):
         scanatlas.build(scan, tmp_path, tmp_path, tmp_path / "o.obj", no_such=1)
-    with pytest.raises(OSError):
+    # The core reports an unusable cameras path as a usage error, hence ValueError.
+    with pytest.raises(ValueError, match="not a COLMAP model folder"):
         scanatlas.build(scan, tmp_path / "none", tmp_path, tmp_path / "o.obj")
 
 
