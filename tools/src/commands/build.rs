@@ -30,8 +30,9 @@ pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
         ..BuildConfig::default()
     };
     let stage = Stage::spinner("building the atlas", quiet);
-    let report = build(&args.mesh, &args.cameras, &args.images, &args.output, &registry, &cfg)
-        .map_err(|e| super::defrag::usage_or_failure(e.into()))?;
+    // Not mapped to bad usage: the build pipeline reports data errors (a missing photo) as
+    // `PipelineError::Usage` too; its real usage mistakes are caught by `check_usage`.
+    let report = build(&args.mesh, &args.cameras, &args.images, &args.output, &registry, &cfg)?;
     stage.finish();
     if let Some(p) = &args.report {
         let json = serde_json::to_string_pretty(&report)?;
