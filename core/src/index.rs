@@ -1,4 +1,10 @@
-//! Typed `u32` indices, so a face index can never be passed where a vertex index is expected.
+//! Typed `u32` indices, so a face index can never be passed where a vertex index is expected,
+//! and [`NONE`], the one "no index" value of the raw `u32` index tables.
+
+/// "No index" in a raw `u32` index table (a face without a chart, a corner at the end of a list,
+/// an unnumbered vertex): the largest `u32`, which no model reaches because the readers refuse
+/// models with more than `u32::MAX` elements.
+pub const NONE: u32 = u32::MAX;
 
 macro_rules! define_index {
     ($(#[$doc:meta])* $name:ident) => {

@@ -4,8 +4,9 @@
 //! Architecture invariants (see `ARCHITECTURE.md` §3): library code never prints, never panics on
 //! user data, never reorders or drops input faces, and never holds a whole texture sheet in RAM.
 
+#![cfg_attr(not(test), deny(clippy::print_stdout, clippy::print_stderr))]
+
 pub mod atomic;
-pub mod build;
 pub mod cancel;
 pub mod defrag;
 pub mod geometry;
@@ -15,11 +16,15 @@ pub mod metrics;
 pub mod model;
 pub mod output_set;
 pub mod pack;
+pub mod photo_atlas;
 pub mod pipeline;
 pub mod plugin;
+pub mod report;
 pub mod synth;
 pub mod texture;
 pub mod topology;
+pub mod union_find;
+pub mod warnings;
 
 pub use index::{FaceId, MaterialId, NormalId, SheetId, UvId, VertexId};
 pub use model::{Face, ImageSource, Material, Model, ModelFormat, Sheet};

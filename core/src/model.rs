@@ -114,8 +114,8 @@ pub struct Model {
     pub path: PathBuf,
     /// Positions as stored in the file (f64: scans are often georeferenced).
     pub positions: Vec<[f64; 3]>,
-    /// Wedge UVs in normalized sheet coordinates, OBJ convention (v up). Never non-finite
-    /// silently: readers keep what the file says, `metrics` reports non-finite values.
+    /// Wedge UVs in normalized sheet coordinates, OBJ convention (v up). A face whose UVs are
+    /// not all finite is read without UVs, with a warning (see `io::read_model`).
     pub uvs: Vec<[f64; 2]>,
     pub normals: Vec<[f32; 3]>,
     /// Triangles in input order (polygons fan-triangulated in place).
@@ -123,8 +123,12 @@ pub struct Model {
     pub materials: Vec<Material>,
     pub sheets: Vec<Sheet>,
     pub origin: Origin,
-    /// Non-fatal observations made while reading (e.g. "12 polygons fan-triangulated").
+    /// Informational observations made while reading that change nothing (e.g. "12 polygons
+    /// triangulated"); they go to the log, never fail a run.
     pub notes: Vec<String>,
+    /// What the reader found that degrades the model (faces without a texture, skipped
+    /// statements, ...): printed for people and failing the run under `--strict`.
+    pub warnings: Vec<crate::warnings::Warning>,
 }
 
 impl Model {

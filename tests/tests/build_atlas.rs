@@ -447,7 +447,8 @@ fn rig_score_of_a_build_and_of_a_hand_flipped_copy() {
     assert!(s.charts >= 2 && s.seam_edges > 0 && s.seam_jump > 0.0, "{s:?}");
 
     let (mut m, sheets) = load_output(&out, dir.path());
-    let cams = scanatlas_core::build::read_rig(&rig.colmap_text, &rig.images).unwrap().cameras;
+    let cams =
+        scanatlas_core::photo_atlas::read_rig(&rig.colmap_text, &rig.images).unwrap().cameras;
     let again = rig_score(&m, &sheets, &p, &cams, rig.faces);
     assert_eq!(again, s, "score_files and rig_score agree");
     // The face with the largest UV triangle on the first sheet; its corner 0 mirrored across

@@ -2,17 +2,15 @@
 //! 1 failure, 2 bad usage, 130 and 143 when stopped by SIGINT and SIGTERM). Every subcommand
 //! lives in its own module under `commands/`.
 
-mod cli;
-mod commands;
-mod progress;
-
 use std::process::ExitCode;
 
 use clap::Parser;
+use scanatlas_cli::{cli, commands, progress};
 
 fn main() -> ExitCode {
     let args = cli::Cli::parse();
     init_logging(args.global.verbose, args.global.quiet);
+    progress::init(args.global.quiet, args.global.progress == cli::ProgressArg::Json);
     if let Some(n) = args.global.threads
         && let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(usize::from(n)).build_global()
     {
@@ -37,6 +35,10 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
         Err(err) => {
+            // Under --strict the warnings are the reason for the failure: all of them are shown.
+            for w in strict_warnings(&err) {
+                eprintln!("scanatlas: warning: {w}");
+            }
             // One line per cause, outermost first, so cron logs stay readable.
             eprintln!("scanatlas: error: {err}");
             for cause in err.chain().skip(1) {
@@ -63,6 +65,16 @@ fn catch_signals() -> std::io::Result<()> {
         }?;
     }
     Ok(())
+}
+
+/// The warnings that made a `--strict` run fail before any work (warnings met after the run
+/// are printed by the command itself).
+fn strict_warnings(err: &anyhow::Error) -> &[scanatlas_core::warnings::Warning] {
+    use scanatlas_core::pipeline::PipelineError;
+    match err.downcast_ref::<PipelineError>() {
+        Some(PipelineError::Strict(s)) => &s.0,
+        _ => &[],
+    }
 }
 
 fn init_logging(verbose: u8, quiet: bool) {

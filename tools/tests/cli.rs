@@ -438,3 +438,111 @@ fn build_from_a_rig_then_defrag_its_output() {
     assert_clean_failure(&build("empty", "e/out.obj", "e/r.json"), "photo_000.png");
     assert!(!d.join("e/out.obj").exists());
 }
+
+#[test]
+fn completions_print_a_script_for_every_shell() {
+    let dir = tempfile::tempdir().unwrap();
+    for (shell, needle) in [
+        ("bash", "complete -F _scanatlas"),
+        ("zsh", "#compdef scanatlas"),
+        ("fish", "complete -c scanatlas"),
+        ("elvish", "scanatlas"),
+        ("powershell", "Register-ArgumentCompleter"),
+    ] {
+        let out = scanatlas(&["completions", shell], dir.path());
+        assert!(out.status.success(), "{shell}: {}", String::from_utf8_lossy(&out.stderr));
+        let text = String::from_utf8(out.stdout).unwrap();
+        assert!(text.contains(needle), "{shell}: no {needle:?}");
+        // Completions follow the clap definitions: defrag's flags are in the script.
+        assert!(text.contains("matching-tolerance"), "{shell}: no defrag flag");
+    }
+    let out = scanatlas(&["completions", "tcsh"], dir.path());
+    assert_eq!(out.status.code(), Some(2));
+}
+
+#[test]
+fn man_pages_print_and_write() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = scanatlas(&["man"], dir.path());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let page = String::from_utf8(out.stdout).unwrap();
+    assert!(page.starts_with(".ie") || page.contains(".TH scanatlas"), "{page}");
+    assert!(page.contains("defrag"), "{page}");
+    let out = scanatlas(&["man", "defrag"], dir.path());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let page = String::from_utf8(out.stdout).unwrap();
+    assert!(page.contains(".TH scanatlas-defrag"), "{page}");
+    assert!(page.contains("matching\\-tolerance"), "{page}");
+    let out = scanatlas(&["man", "defragg"], dir.path());
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("stats"));
+    let out = scanatlas(&["man", "--out-dir", "pages"], dir.path());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for name in ["scanatlas.1", "scanatlas-defrag.1", "scanatlas-completions.1", "scanatlas-man.1"]
+    {
+        let text = std::fs::read_to_string(dir.path().join("pages").join(name)).unwrap();
+        assert!(text.contains(".TH"), "{name}");
+    }
+}
+
+#[test]
+fn defrag_help_is_grouped_with_examples() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = scanatlas(&["defrag", "--help"], dir.path());
+    assert!(out.status.success());
+    let help = String::from_utf8(out.stdout).unwrap();
+    let headings =
+        ["Paper parameters:", "Plugins:", "Packing:", "Textures:", "Repairs:", "Experiments:"];
+    let mut at = 0;
+    for h in headings {
+        let pos = help.find(h).unwrap_or_else(|| panic!("no heading {h:?} in\n{help}"));
+        assert!(pos > at, "{h} out of order in\n{help}");
+        at = pos;
+    }
+    // Each flag sits under its group.
+    let section = |h: &str| {
+        let start = help.find(h).unwrap();
+        let end = help[start + 1..].find("\n\n").map_or(help.len(), |e| start + 1 + e);
+        help[start..end].to_string()
+    };
+    assert!(section("Paper parameters:").contains("--matching-tolerance"));
+    assert!(section("Plugins:").contains("--solver"));
+    assert!(section("Packing:").contains("--max-sheet-size"));
+    assert!(section("Textures:").contains("--texture-format"));
+    assert!(section("Repairs:").contains("--no-untangle"));
+    assert!(section("Experiments:").contains("--cluster-faces"));
+    assert_eq!(help.matches("scanatlas defrag ").count(), 2, "two examples:\n{help}");
+}
+
+#[test]
+fn webp_sheets_are_written_read_and_referenced_through_the_gltf_extension() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(d, "m.mtl", b"newmtl a\nmap_Kd t.png\n");
+    write(d, "t.png", &tiny_png());
+    write(d, "q.obj", QUAD_OBJ.as_bytes());
+    for (format, name) in [("webp", "l"), ("webp-lossy", "y")] {
+        let out = scanatlas(
+            &["convert", "q.obj", "-o", &format!("{name}/q.gltf"), "--texture-format", format],
+            d,
+        );
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let doc: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join(name).join("q.gltf")).unwrap()).unwrap();
+        assert_eq!(doc["extensionsRequired"], serde_json::json!(["EXT_texture_webp"]), "{doc}");
+        let texture = &doc["textures"][0];
+        assert!(texture.get("source").is_none(), "{texture}");
+        let image = texture["extensions"]["EXT_texture_webp"]["source"].as_u64().unwrap();
+        let uri = doc["images"][image as usize]["uri"].as_str().unwrap();
+        let bytes = std::fs::read(d.join(name).join(uri)).unwrap();
+        assert!(bytes.starts_with(b"RIFF") && &bytes[8..12] == b"WEBP");
+        // The written model reads back, WebP sheet included.
+        let out = scanatlas(&["stats", &format!("{name}/q.gltf"), "--json"], d);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(stats["texture_sizes"][0]["width"], 2, "{stats}");
+    }
+    // The lossless sheet holds the PNG's pixels exactly: converting back gives the same PNG data.
+    let out = scanatlas(&["convert", "l/q.gltf", "-o", "p/q.obj", "--texture-format", "png"], d);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}

@@ -5,19 +5,18 @@
 
 use std::time::Instant;
 
+use super::commit::CommitRecord;
 use super::grid::tri_bbox;
 use super::kernel::unfold_start;
 use super::ops::{OpGeometry, dist};
 use super::patch::{find, union};
 use super::separate::area_bound;
 use super::state::{Engine, NONE, orig_tri};
-use super::undo::Saved;
 use super::{DEGENERATE_AREA2, RejectReason};
 use crate::geometry::{
     Tri2, isometric_energy, signed_area2, triangles_overlap_beyond_noise as overlap,
 };
 use crate::plugin::{LocalProblem, LocalSolver, SolveError, SolveReport};
-use crate::topology::{HalfEdgeId, UvVertId};
 
 #[inline]
 fn ms(t: Instant) -> f64 {
@@ -71,23 +70,6 @@ enum Mode {
     Record,
     /// Record what the commit would write, then roll back.
     Speculate,
-}
-
-/// What the commit of a successful attempt wrote (see `Engine::apply_record`).
-#[derive(Clone, Debug)]
-pub(crate) struct CommitRecord {
-    pub g: OpGeometry,
-    energies: (f64, f64, f64),
-    free: Vec<u32>,
-    seeds: Vec<(u32, f64)>,
-    opt_faces: Vec<u32>,
-    moved: Vec<u32>,
-    pos: Vec<(u32, [f64; 2])>,
-    corner: Vec<(u32, UvVertId)>,
-    twin: Vec<(u32, HalfEdgeId)>,
-    head: Vec<(u32, u32)>,
-    tail: Vec<(u32, u32)>,
-    next: Vec<(u32, u32)>,
 }
 
 /// What the checks found.
@@ -145,8 +127,8 @@ impl Engine<'_> {
     ) -> (Result<OpGeometry, RejectReason>, Option<CommitRecord>) {
         // An inter-chart merge is tried first with the staying chart held still (see
         // `MergeOptions::one_sided`), then as the paper does; a retry of a failed operation only
-        // as the paper does (venus: a retried one-sided attempt rarely passes where the first
-        // failed, and costs a solve).
+        // as the paper does: a retried one-sided attempt rarely passes where the first failed,
+        // and costs a solve.
         let one_sided =
             self.opts.one_sided && self.ops[op as usize].failures == 0 && self.op_is_inter(op);
         let mut sides = if one_sided { &[true, false][..] } else { &[false][..] };
@@ -201,73 +183,6 @@ impl Engine<'_> {
         }
         self.reset_scratch();
         (result.map(|_| g), record)
-    }
-
-    /// What the commit of the attempt in progress writes: the new value of every slot the undo
-    /// logs hold, and the lists and energies that `commit` reads.
-    fn record(&self, g: &OpGeometry, energies: (f64, f64, f64)) -> CommitRecord {
-        fn values<T: Copy>(log: &Saved<T>, table: &[T]) -> Vec<(u32, T)> {
-            log.slots().map(|s| (s, table[s as usize])).collect()
-        }
-        CommitRecord {
-            g: *g,
-            energies,
-            free: self.free.clone(),
-            seeds: self.seeds.clone(),
-            opt_faces: self.opt_faces.clone(),
-            moved: self.moved.clone(),
-            pos: values(&self.log.pos, &self.t.uv_pos),
-            corner: values(&self.log.corner, &self.t.corner_uv),
-            twin: values(&self.log.twin, &self.t.he_uv_twin),
-            head: values(&self.log.head, &self.fan_head),
-            tail: values(&self.log.tail, &self.fan_tail),
-            next: values(&self.log.next, &self.fan_next),
-        }
-    }
-
-    /// Commits a success recorded on another engine whose state was this one's for everything
-    /// the attempt read: writes the recorded slots through the undo logs (so that `commit` reads
-    /// the state before the merge as it does after an attempt), puts every face whose triangle
-    /// moved into the grid, and commits.
-    pub(super) fn apply_record(&mut self, r: &CommitRecord) -> OpGeometry {
-        fn write<T: Copy>(log: &mut Saved<T>, table: &mut [T], values: &[(u32, T)]) {
-            for &(s, v) in values {
-                log.set(table, s as usize, v);
-            }
-        }
-        write(&mut self.log.pos, &mut self.t.uv_pos, &r.pos);
-        write(&mut self.log.corner, &mut self.t.corner_uv, &r.corner);
-        write(&mut self.log.twin, &mut self.t.he_uv_twin, &r.twin);
-        write(&mut self.log.head, &mut self.fan_head, &r.head);
-        write(&mut self.log.tail, &mut self.fan_tail, &r.tail);
-        write(&mut self.log.next, &mut self.fan_next, &r.next);
-        self.free.clone_from(&r.free);
-        self.seeds.clone_from(&r.seeds);
-        self.opt_faces.clone_from(&r.opt_faces);
-        self.moved.clone_from(&r.moved);
-        // Every face with a corner on a vertex that moved or changed: a superset of the faces the
-        // attempt itself put into the grid, which is all the grid needs (see `grid`).
-        let ep = self.next_epoch();
-        for i in 0..r.pos.len() + r.corner.len() {
-            let v = if i < r.pos.len() {
-                r.pos[i].0 as usize
-            } else {
-                r.corner[i - r.pos.len()].1.idx()
-            };
-            let mut c = self.fan_head[v];
-            while c != NONE {
-                let f = c / 3;
-                if self.face_stamp[f as usize] != ep {
-                    self.face_stamp[f as usize] = ep;
-                    let tri = self.tri(f as usize);
-                    self.grid.insert(f, &tri);
-                }
-                c = self.fan_next[c as usize];
-            }
-        }
-        self.commit(&r.g, r.energies);
-        self.reset_scratch();
-        r.g
     }
 
     /// Moves chart b by the fit, then fuses each group of paired vertices into its smallest
@@ -527,8 +442,7 @@ impl Engine<'_> {
     /// The first solve of an attempt. A deferred operation's attempt in the second pass often
     /// builds the very problem its first-pass attempt solved (neither chart changed since): the
     /// solver is deterministic, so its answer is taken from the memo instead of solved again
-    /// (venus: 305 deferred operations, most of them large patches, took the merge from 6.2 to
-    /// 7.9 s before). The whole starting problem is compared bit for bit, so the result is the
+    /// (deferred operations are mostly large patches, whose second solve was costly). The whole starting problem is compared bit for bit, so the result is the
     /// one a solve would give, whichever engine holds the memo. In the first pass, the solve of
     /// every attempt on both sides is kept until the outcome says whether it was deferred.
     fn first_solve(
@@ -702,10 +616,9 @@ impl Engine<'_> {
     /// Whether a triangle of the problem with all three vertices fixed fails the fold check in
     /// the starting layout. No step of the attempt can then pass: the solver and the separation
     /// move free vertices only, the checks before the overlap test run on every layout, and the
-    /// fold check comes before it, so the area is never grown either. Venus `--merge-only
-    /// --serial`: 555 attempts of this kind, none of which passed, took 0.15 s of solving and
-    /// checking (most of them one-sided merges, whose fused seam is held where the staying chart
-    /// has it, followed by the merge on both sides).
+    /// fold check comes before it, so the area is never grown either. Such attempts are mostly
+    /// one-sided merges, whose fused seam is held where the staying chart has it, followed by the
+    /// merge on both sides; stopping them early saves their solving and checking.
     pub(super) fn fold_fixed_for_good(&self) -> bool {
         let p = &self.problem;
         p.triangles.iter().zip(&self.problem_faces).any(|(t, &f)| {
@@ -728,11 +641,10 @@ impl Engine<'_> {
     /// first pass of a deferring queue (see `MergeOptions::defer`), and two paths off the
     /// paper's plain one are rationed in both passes. Holding a chart still puts all the distortion on
     /// the other side, which costs more energy than the paper's patch over both; where the
-    /// budget is what stops the merging (meshroom), unbounded one-sided merges spend it early
-    /// and end with fewer merges (solidity 0.093 against 0.108). A rescue's layout passes the
-    /// local check but may be far from the solver's optimum: one rescue on meshroom took 17% of
-    /// the whole budget (36 fair shares) for 0.6% of the border, and rationing rescues took the
-    /// merged border from 29.3k to 28.6k texels. The test reads no atlas-wide sum, so it holds in
+    /// budget is what stops the merging, unbounded one-sided merges spend it early and end with
+    /// fewer merges. A rescue's layout passes the local check but may be far from the solver's
+    /// optimum: a single rescue can take a large share of the whole budget for a sliver of the
+    /// border, and rationing rescues shortens the merged border. The test reads no atlas-wide sum, so it holds in
     /// every cluster and in any order of commits.
     fn over_ration(&self, g: &OpGeometry, delta: f64) -> bool {
         let r = self.opts.energy_ration;
@@ -785,7 +697,7 @@ impl Engine<'_> {
     ///
     /// A pair that already overlapped in the fused starting layout is left free: frozen at that
     /// layout it would overlap in every rerun, so freezing it could only doom the attempt. (On
-    /// venus about nine in ten overlap rejections are of this kind: the fused layout needs more
+    /// real scans most overlap rejections are of this kind: the fused layout needs more
     /// distortion than the solver's energy asks for.)
     fn freeze_offenders(&mut self) -> bool {
         let mut grew = false;
@@ -807,9 +719,8 @@ impl Engine<'_> {
     ///
     /// Most overlap rejections start from a fused layout that overlaps already (a chart fused
     /// into a notch a little too narrow for it). Freezing cannot help those, but a solve with
-    /// more room often spreads the distortion enough to clear them: on venus one growth takes
-    /// the serial merge from 578 to 557 charts for 11% more merge time (a second one: 552 charts,
-    /// 53% more).
+    /// more room often spreads the distortion enough to clear them. One growth is worth its
+    /// time; a second one gains little more and costs much more.
     fn grow_area(&mut self, g: &OpGeometry) -> bool {
         for (i, &v) in self.local_verts.iter().enumerate() {
             self.log.pos.set(&mut self.t.uv_pos, v as usize, self.start_uv[i]);
@@ -861,129 +772,10 @@ impl Engine<'_> {
         }
     }
 
-    /// Keeps the attempt: face caches, chart caches and lists, atlas sums, logs.
-    fn commit(&mut self, g: &OpGeometry, (out_num, out_den, in_num): (f64, f64, f64)) {
-        // The re-optimized and the fused vertices change the geometry of the seams through them;
-        // the rest of the moved chart only moved rigidly.
-        self.commits += 1;
-        for &v in &self.free {
-            self.vert_changed[v as usize] = self.commits;
-        }
-        for &(v, _) in &self.seeds {
-            self.vert_changed[v as usize] = self.commits;
-        }
-        let mut d_area2 = 0.0;
-        let mut d_perimeter = 0.0;
-        for i in 0..self.opt_faces.len() {
-            let f = self.opt_faces[i] as usize;
-            let (before, after) = (self.tri_before(f), self.tri(f));
-            for k in 0..3 {
-                let h = 3 * f + k;
-                if self.log.twin.before(&self.t.he_uv_twin, h).is_none() {
-                    d_perimeter -= dist(before[k], before[(k + 1) % 3]);
-                }
-                if self.t.he_uv_twin[h].is_none() {
-                    d_perimeter += dist(after[k], after[(k + 1) % 3]);
-                }
-            }
-            let a2 = signed_area2(after);
-            d_area2 += a2 - self.face_area2[f];
-            self.face_area2[f] = a2;
-            self.face_energy[f] =
-                self.face_weight[f] * isometric_energy(orig_tri(self.t, f), after);
-            self.face_optimized[f] = true;
-        }
-        // Dissolved sides outside every optimized face stop being border too: all of them when
-        // nothing was freed (the pairs were fused already), the held chart's side of a one-sided
-        // merge. Their faces did not change shape, so the lengths before are the lengths now.
-        for h in self.log.twin.slots() {
-            let h = h as usize;
-            let was_border = self.log.twin.before(&self.t.he_uv_twin, h).is_none();
-            // `opt_faces` is sorted; the `face_opt` marks are not set when a record is replayed.
-            let optimized = self.opt_faces.binary_search(&((h / 3) as u32)).is_ok();
-            if optimized || !was_border || self.t.he_uv_twin[h].is_none() {
-                continue;
-            }
-            let before = self.tri_before(h / 3);
-            let k = h % 3;
-            d_perimeter -= dist(before[k], before[(k + 1) % 3]);
-        }
-        self.energy_num += out_num - in_num;
-        self.border_len += d_perimeter;
-        let local = if out_den > 0.0 { out_num / out_den } else { 0.0 };
-        self.report.max_accepted_local_energy = self.report.max_accepted_local_energy.max(local);
-        self.report.optimized_faces += self.opt_faces.len() as u64;
-
-        let (a, b) = (g.a.idx(), g.b.idx());
-        if g.inter {
-            let faces = std::mem::take(&mut self.chart_faces[b]);
-            for &f in &faces {
-                self.t.face_chart[f as usize] = g.a;
-            }
-            self.chart_faces[a].extend_from_slice(&faces);
-            for &v in &self.moved {
-                self.t.uv_chart[v as usize] = g.a;
-            }
-            let cb = self.t.charts[b].clone();
-            let ca = &mut self.t.charts[a];
-            ca.n_faces += cb.n_faces;
-            ca.area_signed += cb.area_signed;
-            ca.area_3d += cb.area_3d;
-            ca.perimeter_uv += cb.perimeter_uv;
-            self.t.charts[b].n_faces = 0;
-        }
-        let ca = &mut self.t.charts[a];
-        ca.area_signed += 0.5 * d_area2;
-        ca.area_uv = ca.area_signed.abs();
-        ca.perimeter_uv += d_perimeter;
-        // The bbox only grows: it bounds the moved chart and every re-optimized vertex.
-        let mut bbox = ca.bbox;
-        for &v in self.moved.iter().chain(&self.free) {
-            let p = self.t.uv_pos[v as usize];
-            bbox = [bbox[0].min(p[0]), bbox[1].min(p[1]), bbox[2].max(p[0]), bbox[3].max(p[1])];
-        }
-        self.t.charts[a].bbox = bbox;
-        self.log.pos.commit();
-        self.log.corner.commit();
-        self.log.twin.commit();
-        self.log.head.commit();
-        self.log.tail.commit();
-        self.log.next.commit();
-    }
-
-    /// Puts the layout back as it was before the attempt.
-    fn rollback(&mut self) {
-        self.log.pos.restore(&mut self.t.uv_pos);
-        self.log.corner.restore(&mut self.t.corner_uv);
-        self.log.twin.restore(&mut self.t.he_uv_twin);
-        self.log.head.restore(&mut self.fan_head);
-        self.log.tail.restore(&mut self.fan_tail);
-        self.log.next.restore(&mut self.fan_next);
-    }
-
     /// Clears the per-attempt marks.
-    fn reset_scratch(&mut self) {
+    pub(super) fn reset_scratch(&mut self) {
         self.clear_patch_marks();
         self.hold = None;
         self.maybe_compact_grid();
-    }
-
-    /// Clears the marks of the optimization area: budgets, patch faces, local and frozen
-    /// vertices.
-    fn clear_patch_marks(&mut self) {
-        for &v in &self.free {
-            self.vert_budget[v as usize] = f64::NAN;
-        }
-        for &f in &self.opt_faces {
-            self.face_opt[f as usize] = false;
-        }
-        for &v in &self.local_verts {
-            self.vert_local[v as usize] = NONE;
-        }
-        for &v in &self.frozen_list {
-            self.vert_frozen[v as usize] = false;
-        }
-        self.frozen_list.clear();
-        self.local_verts.clear();
     }
 }

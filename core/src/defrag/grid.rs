@@ -48,25 +48,45 @@ pub(crate) fn tri_bbox(t: &Tri2) -> [f64; 4] {
     ]
 }
 
+/// The most cells a grid for `n_faces` faces gets: far more than a real atlas needs (its cells
+/// are about two mean triangles across, so it has about as many cells as faces), and a bound on
+/// memory whatever the extent.
+pub(crate) fn max_cells(n_faces: usize) -> usize {
+    n_faces.saturating_mul(16).saturating_add(1 << 16)
+}
+
 impl FaceGrid {
     /// An empty grid covering `extent` (`[min x, min y, max x, max y]`) with square cells of side
     /// `cell`, for faces `0..n_faces`. Points outside the extent wrap around (see `axis_span`).
+    ///
+    /// The cell count follows the content, not the extent: one far-off UV makes the extent
+    /// huge, and a grid sized from it would hold millions of empty cells (and every face that
+    /// reaches the outlier would fill them all). Beyond [`max_cells`] the grid keeps the cell
+    /// side the content asks for and gets fewer cells, which the wrap-around makes correct: far
+    /// regions share cells, and only give extra candidates.
     pub fn new(extent: [f64; 4], cell: f64, n_faces: usize) -> Self {
         let cell = if cell.is_finite() && cell > 0.0 { cell } else { 1.0 };
         let span = |lo: f64, hi: f64| {
             let n = ((hi - lo) / cell).ceil();
             if n.is_finite() && n >= 1.0 { (n as u32).min(4096) } else { 1 }
         };
-        let (nx, ny) = (span(extent[0], extent[2]), span(extent[1], extent[3]));
+        let (mut nx, mut ny) = (span(extent[0], extent[2]), span(extent[1], extent[3]));
         let origin = if extent[0].is_finite() && extent[1].is_finite() {
             [extent[0], extent[1]]
         } else {
             [0.0, 0.0]
         };
-        // The cell side grows when the extent needs more than 4096 cells per axis.
-        let cell = cell
-            .max((extent[2] - extent[0]) / f64::from(nx))
-            .max((extent[3] - extent[1]) / f64::from(ny));
+        let limit = max_cells(n_faces);
+        let cell = if (nx as usize) * (ny as usize) > limit {
+            let shrink = (limit as f64 / (f64::from(nx) * f64::from(ny))).sqrt();
+            nx = ((f64::from(nx) * shrink) as u32).max(1);
+            ny = ((f64::from(ny) * shrink) as u32).max(1);
+            cell
+        } else {
+            // The cell side grows when the extent needs more than 4096 cells per axis.
+            cell.max((extent[2] - extent[0]) / f64::from(nx))
+                .max((extent[3] - extent[1]) / f64::from(ny))
+        };
         let cell = if cell.is_finite() && cell > 0.0 { cell } else { 1.0 };
         Self {
             origin,
@@ -170,6 +190,26 @@ impl FaceGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_far_off_extent_costs_cells_by_content_not_by_extent() {
+        // Before: one outlier at a million sheet widths gave 4096 × 4096 cells.
+        let mut g = FaceGrid::new([0.0, 0.0, 5e8, 5e8], 20.0, 1000);
+        assert!(g.cells.len() <= max_cells(1000), "{}", g.cells.len());
+        // The cells keep the content's side, so nearby faces stay apart...
+        g.insert(0, &[[1.0, 1.0], [10.0, 1.0], [1.0, 10.0]]);
+        g.insert(1, &[[200.0, 200.0], [210.0, 200.0], [200.0, 210.0]]);
+        // ...and a face reaching the outlier lands in every cell, once.
+        g.insert(2, &[[1.0, 1.0], [5e8, 5e8], [1.0, 5e8]]);
+        assert!(g.entries() <= 2 + max_cells(1000));
+        let mut out = Vec::new();
+        g.query([0.0, 0.0, 12.0, 12.0], &mut out);
+        out.sort_unstable();
+        assert_eq!(out, [0, 2]);
+        out.clear();
+        g.query([4.9e8, 4.9e8, 4.9e8 + 1.0, 4.9e8 + 1.0], &mut out);
+        assert!(out.contains(&2), "{out:?}");
+    }
 
     #[test]
     fn floor_matches_the_library_floor() {

@@ -5,8 +5,8 @@
 //! Fusing a seam's vertex pairs at their means can fold a few triangles of the fused layout (a
 //! vertex pulled past the far edge of a sliver). ARAP does not always undo such a fold: its local
 //! step keeps a flipped triangle's rotation, and when the fixed ring leaves little room the
-//! optimum stays folded, so the merge is rejected (on the Meshroom scan 138 rejections, a sixth of
-//! the total, were of this kind, most of them with a layout the solver never changed). A vertex
+//! optimum stays folded, so the merge is rejected (a sizeable share of the rejections on scans
+//! with folded input, most of them with a layout the solver never changed). A vertex
 //! moved into its kernel unfolds every triangle around it and breaks none, so each move makes
 //! progress; the solver then starts from a layout without folds and keeps it that way.
 

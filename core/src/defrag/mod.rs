@@ -18,6 +18,7 @@
 
 mod attempt;
 mod clusters;
+mod commit;
 mod greedy;
 mod grid;
 mod kernel;
@@ -87,10 +88,8 @@ pub struct MergeOptions {
     ///
     /// Why one queue is the default: with a second worker judging operations ahead of it
     /// (`speculate`) it gives the serial result in less time than the clusters do on two cores.
-    /// Venus's merge stage, same run, medians of three: serial 10.4 s, one queue judged ahead
-    /// 7.1 s (336 charts, as serial), two clusters of 300k faces 9.4 s (333 charts): their first
-    /// round waits for the slower cluster (3.1 and 5.8 s) and the last round runs on one queue
-    /// anyway. Clusters remain for machines with many cores.
+    /// The clusters' first round waits for the slower cluster and their last round runs on one
+    /// queue anyway. Clusters remain for machines with many cores.
     pub cluster_faces: u32,
     /// With a second solver (two or more threads), let a second engine judge operations further
     /// down a whole-atlas queue while the first settles the top one (see `speculate`). The result
@@ -112,19 +111,18 @@ pub struct MergeOptions {
     /// [`RejectReason::Deferred`]); once the queue is empty, the deferred operations are queued
     /// again and the second pass takes them as the paper would, while the budget lasts. The
     /// paper's greedy order ranks by appeal, blind to what a merge costs, and the budget g went
-    /// to the first merges that asked for it: on meshroom five merges took 37% of g for 4% of
-    /// the dissolved border, and the queue ended with 17k texels of seams that the budget
-    /// refused. Deferring the costly ones leaves the budget to the merges that dissolve the most
-    /// border for it: meshroom's merged border 28.6k → 25.7k texels (see README).
+    /// to the first merges that asked for it: a few costly merges could take a large share of g
+    /// for a small share of the dissolved border, and the queue then ended with long seams that
+    /// the budget refused. Deferring the costly ones leaves the budget to the merges that
+    /// dissolve the most border for it, and the merged border shortens (see the CHANGELOG).
     pub defer: bool,
     /// An attempt whose solved layout the checks refuse (a fold, the local distortion, or an
     /// overlap that freezing and growing the area left) is solved once more by the solver's
     /// rescue method (`--solver arap+slim`, see `LocalSolver::solve_again`) when its seams are at
     /// least this share of the input's UV border (0: every refused attempt; 1 or more: never).
-    /// Only long seams are worth a second, slower solve: on meshroom the rescues that passed
-    /// were of seams of 0.2–1% of the input border, and on venus rescuing every refused attempt
-    /// (about 2,800) took the merge from 5.6 to 9.0 s for 8 more merges and the same border
-    /// (see README).
+    /// Only long seams are worth a second, slower solve: the rescues that pass are of long
+    /// seams, and rescuing every refused attempt costs much merge time for a handful of merges
+    /// and no shorter border.
     pub rescue_share: f64,
 }
 

@@ -8,26 +8,7 @@ use super::ops::dist;
 use super::state::{Engine, NONE, OrdF64, orig_tri};
 use crate::geometry::signed_area2;
 
-/// Union-find root with path halving.
-#[inline]
-pub(crate) fn find(parent: &mut [u32], mut x: u32) -> u32 {
-    while parent[x as usize] != x {
-        let p = parent[parent[x as usize] as usize];
-        parent[x as usize] = p;
-        x = p;
-    }
-    x
-}
-
-/// Joins the sets of `a` and `b`, keeping the smaller root (order independent).
-#[inline]
-pub(crate) fn union(parent: &mut [u32], a: u32, b: u32) {
-    let (ra, rb) = (find(parent, a), find(parent, b));
-    if ra != rb {
-        let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
-        parent[hi as usize] = lo;
-    }
-}
+pub(crate) use crate::union_find::{find, union};
 
 impl Engine<'_> {
     /// Whether vertex `v` is free in the current attempt.
@@ -99,7 +80,7 @@ impl Engine<'_> {
             // The faces on the seam changed shape when it was fused, even those with no free
             // vertex: the moving chart's always, the held chart's where a group held two of its
             // vertices (a slit closing at the seam's end), which meet at their mean. They are
-            // judged and booked with the area too (venus: 7 new overlapping pairs otherwise).
+            // judged and booked with the area too, or their moves would leave new overlaps.
             for i in 0..self.seeds.len() {
                 self.add_fan_to_area(self.seeds[i].0);
             }
@@ -135,9 +116,8 @@ impl Engine<'_> {
             // A face with two corners at one 3-D position (frozen as degenerate, and carried
             // along with its chart) has two corners on one UV vertex: it stays a segment wherever
             // its vertices go, has no area to keep and no energy, and as a triangle of the patch
-            // it would make the patch's topology fail. Venus has 2,634 such faces; before, every
-            // merge whose area reached one was refused (147 of 159 topology refusals of the
-            // serial venus merge).
+            // it would make the patch's topology fail. Photogrammetry meshes hold many such
+            // faces, and without this rule every merge whose area reached one was refused.
             let c = |k: usize| self.t.corner_uv[3 * f as usize + k].0;
             if c(0) == c(1) || c(1) == c(2) || c(0) == c(2) {
                 continue;
@@ -337,5 +317,24 @@ impl Engine<'_> {
             self.problem.fixed[best.1 as usize] = true;
             self.problem.fixed[best.2 as usize] = true;
         }
+    }
+
+    /// Clears the marks of the optimization area: budgets, patch faces, local and frozen
+    /// vertices.
+    pub(super) fn clear_patch_marks(&mut self) {
+        for &v in &self.free {
+            self.vert_budget[v as usize] = f64::NAN;
+        }
+        for &f in &self.opt_faces {
+            self.face_opt[f as usize] = false;
+        }
+        for &v in &self.local_verts {
+            self.vert_local[v as usize] = NONE;
+        }
+        for &v in &self.frozen_list {
+            self.vert_frozen[v as usize] = false;
+        }
+        self.frozen_list.clear();
+        self.local_verts.clear();
     }
 }

@@ -4,9 +4,9 @@
 //!
 //! ARAP knows nothing of overlap. Where a seam ends, slivers of the moved chart often stick out
 //! across the fused seam into a large triangle of the other chart, because their original shapes
-//! do; the solve keeps those shapes and the merge is rejected for a handful of triangles (on the
-//! Meshroom scan nearly all of its 600-odd overlap rejections overlapped already in the fused
-//! layout, two to eight pairs in patches of hundreds of faces). Pulling a sliver's tip back across
+//! do; the solve keeps those shapes and the merge is rejected for a handful of triangles (most
+//! overlap rejections overlap already in the fused layout, a few pairs in patches of hundreds of
+//! faces). Pulling a sliver's tip back across
 //! the seam costs almost nothing in area-weighted distortion. The verdict is then taken again in
 //! full, so a separated layout passes only if every check of the paper passes.
 
@@ -20,8 +20,8 @@ use crate::geometry::{Tri2, isometric_energy, signed_area2, triangles_overlap_be
 /// Sweeps over the offending pairs.
 const PASSES: usize = 4;
 
-/// More overlapping pairs than this are not worth separating: on venus, solves that left more
-/// than 32 pairs were separated 4 times in 255 tries, for 60% of the separation time.
+/// More overlapping pairs than this are not worth separating: solves that leave more are almost
+/// never separated, yet would take most of the separation time.
 const MAX_PAIRS: usize = 32;
 
 /// Step lengths tried for one vertex, as fractions of its mean incident edge length, shortest

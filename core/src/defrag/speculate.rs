@@ -22,14 +22,14 @@
 //! soonest goes first, whatever order they were asked in), after replaying every commit sent
 //! before it, and drops unjudged a request that a commit since has touched (its judgement could
 //! never be taken). First come, first served left the master waiting for the top operation behind
-//! requests further down, and spent the shadow on judgements already overturned (venus, merge
-//! stage, six rounds alternating on a noisy machine: median 4.54 s first come, 4.41 s by key).
+//! requests further down, and spent the shadow on judgements already overturned; by key the merge
+//! is a little faster.
 
 use std::cmp::Reverse;
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::time::Instant;
 
-use super::attempt::CommitRecord;
+use super::commit::CommitRecord;
 use super::greedy::Queue;
 use super::ops::EngineOp;
 use super::state::{Engine, OrdF64};
@@ -39,27 +39,23 @@ use crate::topology::ChartId;
 
 /// Judgements the shadow may have queued or in progress at once. With fewer the shadow idles
 /// while the master attempts an operation itself; with more, the master waits longer for the
-/// one at the top. On venus (merge stage, median of three, noisy machine): 2 in flight and 8
-/// looked at gave 8.2 s, 4 and 16 gave 8.0 s, 3 and 16 gave 8.2 s (serial: 11.0 s). With the
-/// most urgent request judged first, 8 and 16 cut the shadow's idle time by half but made the
+/// one at the top. Four was the fastest of the caps tried on the shared models (see
+/// `benches/results/moved-comments.md`); larger caps cut the shadow's idle time but made the
 /// master wait longer, and the merge was no faster.
 const MAX_IN_FLIGHT: usize = 4;
 
 /// Judgements the shadow may have pending while the master attempts the top operation itself
 /// (nobody could judge it ahead: a commit just changed one of its charts). The master is then
-/// away for a whole attempt, and with `MAX_IN_FLIGHT` the shadow ran out of work: it idled
-/// 0.38 s of the venus merge. Raising the cap only for that time keeps the short wait for the top
-/// operation that the smaller cap gives everywhere else. Venus `--merge-only`, merge stage, runs
-/// alternating on a noisy machine: median 3419 ms with 4 (eleven runs), 3371 ms with 8 (eleven),
-/// 3335 ms with 12 (three): a small gain, near the noise.
+/// away for a whole attempt, and with `MAX_IN_FLIGHT` the shadow ran out of work. Raising the
+/// cap only for that time keeps the short wait for the top operation that the smaller cap gives
+/// everywhere else; the gain measured is small, near the noise.
 const OWN_ATTEMPT_IN_FLIGHT: usize = 8;
 
 /// Queue entries looked at, from the top, for an operation the shadow may judge. Looking further
 /// finds independent operations while the top of the queue is all of one large chart's, at the
-/// cost of heap pops and pushes on the master. Venus `--merge-only`, merge stage, two rounds
-/// alternating (2026-12-04): 16 entries 4.21 and 4.16 s, 64 entries 4.05 and 3.93 s, 256 entries
-/// 4.11 and 3.90 s, 1024 entries 4.23 and 4.13 s; 8 or 16 in flight were slower at every depth
-/// (the master waits longer for the top one: 1.5–2.1 s in all against 0.1–0.4 s).
+/// cost of heap pops and pushes on the master. A few dozen entries measured best: much deeper
+/// looks cost the master more than they found, and more judgements in flight were slower at
+/// every depth because the master waits longer for the top one.
 const LOOK_AHEAD: usize = 64;
 
 /// The queue key of an entry (see `greedy::Queue`): the larger, the sooner the master settles it.
@@ -140,10 +136,9 @@ impl Engine<'_> {
     ) -> StopReason {
         // The copies are made on workers of the pool, whose allocator arenas hold what the
         // cluster forks of the earlier rounds freed: made on this thread they would come on top
-        // of it (venus: 943 MB peak against 807 MB without the shadow). The topology and the
-        // engine's state are copied side by side (venus: 40 and 33 ms, one after the other
-        // before), and the shadow assembles its engine itself (11 ms), so that the master waits
-        // for neither longer than it must.
+        // of it and raise the peak memory. The topology and the engine's state are copied side
+        // by side, and the shadow assembles its engine itself, so that the master waits for
+        // neither longer than it must.
         let (mut topo, parts) = rayon::join(|| self.t.clone(), || self.parts());
         let opts = self.opts.clone();
         let (to_shadow, shadow_rx) = channel::<ToShadow>();

@@ -11,7 +11,7 @@ use crate::geometry::{Tri2, energy_weight, isometric_energy, signed_area2};
 use crate::plugin::LocalProblem;
 use crate::topology::{ChartId, HalfEdgeId, Topology, UvVertId};
 
-pub(crate) const NONE: u32 = u32::MAX;
+pub(crate) use crate::index::NONE;
 
 /// The result of the merge stage besides the updated [`Topology`]: dense chart ids for packing
 /// and the faces whose UVs were re-optimized.
@@ -432,9 +432,8 @@ impl<'t> Engine<'t> {
 
     /// Rebuilds the grid from the current layout once stale entries outnumber live ones 3 to 1.
     /// The live count is the grid's entries at its last rebuild, not the number of faces: a face
-    /// has an entry in every cell its box touches (about two on venus), and counting faces made
-    /// the grid rebuild after every million stale entries, 14 rebuilds of 1.3 M entries in a
-    /// serial venus merge, 8 M of its 11 M inserts.
+    /// has an entry in every cell its box touches (often more than one), and counting faces
+    /// made the grid rebuild far too often, spending most of its inserts on rebuilds.
     pub fn maybe_compact_grid(&mut self) {
         if self.grid.entries() > 4 * self.grid_live.max(1) + 1024 {
             self.rebuild_grid();

@@ -2,7 +2,7 @@
 //! before its first write, so a rejected attempt is undone in time proportional to what it
 //! touched (never to the size of the charts), and the checks can read the state before the merge.
 
-const NONE: u32 = u32::MAX;
+use crate::index::NONE;
 
 /// The saved first values of the slots of one table written during an attempt.
 #[derive(Debug)]

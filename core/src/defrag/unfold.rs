@@ -2,7 +2,7 @@
 //!
 //! Meshroom scans carry specks of floating debris: closed bits of 4 to 12 faces, far below a
 //! texel, each its own 3D component and its own chart, whose UV triangles are folded flat onto
-//! each other (meshroom-esp32cam has 47 of them). Their signed areas cancel, so half the faces of
+//! each other. Their signed areas cancel, so half the faces of
 //! such a chart wind against the other half whatever the chart's orientation, and its layers
 //! share texels. No merge can take them (they share no edge with any other chart) and the
 //! zero-area join finds no neighbour. This pass unfolds each such chart in place instead: a

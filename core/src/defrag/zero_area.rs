@@ -1,8 +1,7 @@
 //! Charts of zero-area faces joined to a neighbouring chart after merging.
 //!
 //! Photogrammetry meshes hold slivers and caps whose corners are collinear or coincide, in 3D or
-//! in UV: venus has 2,634 faces of zero 3D area and 630 of zero UV area, many of them alone in a
-//! chart of their own. A zero-3D-area face never shows on the surface, and a zero-UV-area face
+//! in UV, by the thousand on large scans, many of them alone in a chart of their own. A zero-3D-area face never shows on the surface, and a zero-UV-area face
 //! owns no texel (it shows the colour of a line of texels), yet each of their charts costs a
 //! padded island in the atlas, gutters and seams. The reference deletes the first kind; scanatlas
 //! keeps every face, so it re-attaches both instead: a face of such a chart takes, for one of its
@@ -11,8 +10,8 @@
 //! UV shape (scaled to the neighbour's edge length, mirrored if needed so that its orientation is
 //! the chart's; a zero-UV-area face stays degenerate, on the edge).
 //!
-//! A face with no such neighbour across any edge (on venus: 66 single faces whose corners repeat a
-//! position, so none of their edges is shared) joins at a corner instead: the corner takes the UV
+//! A face with no such neighbour across any edge (a single face whose corners repeat a position,
+//! so none of its edges is shared) joins at a corner instead: the corner takes the UV
 //! vertex of a face of positive area at the same 3D position, and the face keeps its original UV
 //! shape and size (turned in steps of 45° until it fits, mirrored to the chart's orientation),
 //! hanging off that vertex. It then shares a UV vertex with the chart, which is what makes two

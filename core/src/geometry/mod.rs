@@ -22,7 +22,7 @@ pub use predicates::{
 pub use svd::{Mat2, closest_rotation, singular_values, svd2, svd2_signed};
 
 /// The length of the vector `(x, y)`. The plain square root is exact to an ulp or two and several
-/// times cheaper than `hypot` (glibc's `hypot` was 2.7% of a whole venus run); `hypot` only
+/// times cheaper than `hypot` (which showed in whole-run profiles); `hypot` only
 /// guards the magnitudes where the squares would overflow or underflow.
 #[inline]
 pub fn norm(x: f64, y: f64) -> f64 {

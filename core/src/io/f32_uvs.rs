@@ -5,8 +5,8 @@
 //! step, which on a 4096-texel sheet is about 1e-4 texel: a sliver whose doubled area is below
 //! that can turn over or flatten. Photogrammetry atlases are full of such slivers, and moving a
 //! chart (which the defragmentation does) puts them at coordinates with another rounding than the
-//! input's: venus written as glTF had 37 faces turned over and 11 flattened by the rounding alone,
-//! against none as OBJ (whose decimal text keeps the f64 values). Before such a format is written,
+//! input's: a large scan written as glTF gets faces turned over and flattened by the rounding
+//! alone, against none as OBJ (whose decimal text keeps the f64 values). Before such a format is written,
 //! every face that the rounding would turn over or flatten gets one of its corners moved by a few
 //! f32 steps (a few ten-thousandths of a texel) so that it keeps its orientation, and no other face
 //! loses its own.

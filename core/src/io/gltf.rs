@@ -16,6 +16,7 @@
 //! base-colour texture's `KHR_texture_transform`, if any.
 
 mod accessor;
+mod draco;
 mod fresh;
 mod output;
 mod reader;

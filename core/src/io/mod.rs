@@ -1,14 +1,16 @@
 //! Model readers and writers (OBJ+MTL, glTF/GLB, PLY), chosen by extension or magic bytes.
 //!
-//! Every reader keeps faces in input order, fan-triangulates polygons in place, validates every
+//! Every reader keeps faces in input order, triangulates polygons in place (a fan when convex,
+//! ear clipping in the polygon's plane otherwise; see `triangulate`), validates every
 //! index before returning, and reports malformed input as an [`IoError`] naming the file and the
 //! line or byte offset. Every writer is atomic and refuses to overwrite a protected (input) path.
 
 mod f32_uvs;
 pub mod gltf;
 pub mod obj;
-pub(crate) mod paths;
+pub mod paths;
 pub mod ply;
+mod triangulate;
 
 use std::path::{Path, PathBuf};
 
@@ -32,6 +34,9 @@ pub enum IoError {
     /// The file is valid but uses something scanatlas cannot handle (named in `msg`).
     #[error("{path}: unsupported: {msg}")]
     Unsupported { path: PathBuf, msg: String },
+    /// A referenced file lies outside the model's folder and `--confine` is on.
+    #[error("{path}: {msg}")]
+    Confined { path: PathBuf, msg: String },
     /// The extension and the content name no format scanatlas knows.
     #[error("{path}: unknown model format (expected .obj, .gltf, .glb or .ply)")]
     UnknownFormat { path: PathBuf },
@@ -53,6 +58,28 @@ impl IoError {
     }
     pub fn unsupported(path: &Path, msg: impl Into<String>) -> Self {
         Self::Unsupported { path: path.to_path_buf(), msg: msg.into() }
+    }
+}
+
+/// Refuses, from now on in this process, texture, buffer and material-library references that
+/// lie outside the folder of the model naming them, and photos outside the photo folder (the
+/// command line's `--confine`, for servers that process uploaded models).
+pub fn set_confinement(on: bool) {
+    paths::set_confined(on);
+}
+
+/// With confinement on (see [`set_confinement`]), `Err` unless `target`, named by the file
+/// `referrer`, lies inside the folder `base`.
+pub fn check_confined(referrer: &Path, base: &Path, target: &Path) -> Result<(), IoError> {
+    paths::check_confined(base, target)
+        .map_err(|msg| IoError::Confined { path: referrer.to_path_buf(), msg })
+}
+
+/// The folder of a model file (`.` when the path has none).
+pub fn model_dir(path: &Path) -> PathBuf {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
     }
 }
 
@@ -120,7 +147,7 @@ pub fn referenced_files(model: &Model) -> Vec<PathBuf> {
 pub fn detect_format(path: &Path) -> Result<ModelFormat, IoError> {
     use std::io::Read;
     let mut head = [0u8; 4];
-    let mut f = std::fs::File::open(path).map_err(|e| IoError::file(path, e))?;
+    let mut f = paths::open_regular(path).map_err(|e| IoError::file(path, e))?;
     let n = f.read(&mut head).map_err(|e| IoError::file(path, e))?;
     if n == 4 && &head == b"glTF" {
         return Ok(ModelFormat::Glb);
@@ -134,13 +161,104 @@ pub fn detect_format(path: &Path) -> Result<ModelFormat, IoError> {
 /// Reads a model of any supported format. Sheet sizes are left unknown (`None`); the texture
 /// layer probes them from the image headers.
 pub fn read_model(path: &Path) -> Result<Model, IoError> {
-    let model = match detect_format(path)? {
+    let mut model = match detect_format(path)? {
         ModelFormat::Obj => obj::read(path)?,
         ModelFormat::Gltf | ModelFormat::Glb => gltf::read(path)?,
         ModelFormat::Ply => ply::read(path)?,
     };
     model.validate_indices().map_err(|msg| IoError::invalid(path, msg))?;
+    let dir = model_dir(path);
+    for sheet in &model.sheets {
+        if let crate::model::ImageSource::File(p) = &sheet.image {
+            check_confined(path, &dir, p)?;
+        }
+    }
+    review_uvs(&mut model);
+    for note in &model.notes {
+        tracing::info!("{}: {note}", path.display());
+    }
+    for w in &mut model.warnings {
+        w.message = format!("{}: {}", path.display(), w.message);
+    }
     Ok(model)
+}
+
+/// Checks, before any file is written, that `model` can be written to `path` (see
+/// [`check_writable`]), so a run refuses before it writes sheets for a model it cannot write.
+pub fn check_output(model: &Model, path: &Path) -> Result<(), IoError> {
+    let format = ModelFormat::from_path(path)
+        .ok_or_else(|| IoError::UnknownFormat { path: path.to_path_buf() })?;
+    let world = match format {
+        ModelFormat::Obj | ModelFormat::Ply => gltf::with_node_transforms(model),
+        ModelFormat::Gltf | ModelFormat::Glb => None,
+    };
+    check_writable(world.as_ref().unwrap_or(model), format, path)
+}
+
+/// Refuses a model that the reader of `format` would refuse once written: no triangle at all
+/// (a glTF of points only), or positions that are not finite, or not finite once stored as the
+/// format's number type (glTF stores f32; node transforms applied for OBJ and PLY may overflow).
+/// A writer must never produce a file its own reader rejects.
+pub fn check_writable(model: &Model, format: ModelFormat, path: &Path) -> Result<(), IoError> {
+    if model.faces.is_empty() {
+        return Err(IoError::invalid(path, "the model has no triangles to write"));
+    }
+    let limit = match format {
+        ModelFormat::Gltf | ModelFormat::Glb => f64::from(f32::MAX),
+        ModelFormat::Obj | ModelFormat::Ply => f64::MAX,
+    };
+    if let Some(i) = model.positions.iter().position(|p| p.iter().any(|c| !(c.abs() <= limit))) {
+        return Err(IoError::invalid(
+            path,
+            format!(
+                "position {i} is {:?}, which a .{} file cannot hold as a finite number (a node \
+                 transform out of range?)",
+                model.positions[i],
+                format.extension()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The checks every format shares once a model is read: a face whose texture coordinates are
+/// not all finite keeps its place but loses its UVs (no texel can be found for it, and its UV
+/// triangle would poison every area and bounding box downstream), and faces whose UVs index no
+/// texture are counted. Both are warnings, so that nobody loses a texture without being told.
+fn review_uvs(model: &mut Model) {
+    use crate::warnings::{Warning, WarningCode};
+    let finite: Vec<bool> =
+        model.uvs.iter().map(|t| t[0].is_finite() && t[1].is_finite()).collect();
+    let mut non_finite = 0u64;
+    let mut untextured = 0u64;
+    for f in 0..model.faces.len() {
+        let Some(t) = model.faces[f].uv else { continue };
+        if !t.iter().all(|t| finite[t.idx()]) {
+            model.faces[f].uv = None;
+            non_finite += 1;
+        } else if model.face_sheet(crate::FaceId::from_usize(f)).is_none() {
+            untextured += 1;
+        }
+    }
+    if non_finite > 0 {
+        model.warnings.push(Warning::new(
+            WarningCode::NonFiniteUvs,
+            format!(
+                "{non_finite} faces have NaN or infinite texture coordinates; they are kept \
+                 without UVs and lose their texture"
+            ),
+        ));
+    }
+    if untextured > 0 {
+        model.warnings.push(Warning::new(
+            WarningCode::UvsWithoutTexture,
+            format!(
+                "{untextured} faces have texture coordinates but no material with a texture \
+                 (no usemtl, an undefined material or no map_Kd); their UVs index no image and \
+                 are not kept by defrag"
+            ),
+        ));
+    }
 }
 
 /// Writes a model in the format its extension names, atomically. The input file of the model
@@ -160,6 +278,7 @@ pub fn write_model(model: &Model, path: &Path, opts: &WriteOptions) -> Result<()
         ModelFormat::Gltf | ModelFormat::Glb => None,
     };
     let model = world.as_ref().unwrap_or(model);
+    check_writable(model, format, path)?;
     let stored = match format {
         ModelFormat::Obj => None,
         ModelFormat::Gltf | ModelFormat::Glb => Some(f32_uvs::Stored::FlippedV),

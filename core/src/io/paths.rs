@@ -3,6 +3,90 @@
 //! the root, absolute otherwise).
 
 use std::path::{Component, Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Whether references must stay inside their model's folder (see [`check_confined`]).
+static CONFINED: AtomicBool = AtomicBool::new(false);
+
+/// Turns confinement on or off for the whole process (the command line's `--confine`).
+pub(crate) fn set_confined(on: bool) {
+    CONFINED.store(on, Ordering::Relaxed);
+}
+
+/// With confinement on, refuses a file that a model references (a texture, a buffer, a material
+/// library, a photo) unless it lies inside `base` once symbolic links and `..` are resolved.
+/// Returns the error message, naming both paths but nothing of the file's content.
+pub(crate) fn check_confined(base: &Path, target: &Path) -> Result<(), String> {
+    if !CONFINED.load(Ordering::Relaxed) {
+        return Ok(());
+    }
+    let real = |p: &Path| std::fs::canonicalize(p).ok().or_else(|| absolute(p));
+    let (Some(b), Some(t)) = (real(base), real(target)) else {
+        return Err(format!("cannot resolve {} (--confine)", target.display()));
+    };
+    if t.starts_with(&b) {
+        Ok(())
+    } else {
+        Err(format!(
+            "{} is outside the folder {} and --confine refuses it",
+            target.display(),
+            b.display()
+        ))
+    }
+}
+
+/// Opens a file for reading, refusing anything but a regular file: a FIFO would block the run
+/// forever, a device such as `/dev/zero` never ends, and a directory is no file. The file is
+/// opened without blocking (so a FIFO cannot hang the open itself) and checked on the open
+/// handle, so it cannot be swapped between the check and the read.
+pub fn open_regular(path: &Path) -> std::io::Result<std::fs::File> {
+    let mut options = std::fs::OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        options.custom_flags(libc::O_NONBLOCK);
+    }
+    let file = options.open(path)?;
+    let kind = file.metadata()?.file_type();
+    if kind.is_file() {
+        return Ok(file);
+    }
+    let what = if kind.is_dir() {
+        "a directory"
+    } else {
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::FileTypeExt;
+            if kind.is_fifo() {
+                "a FIFO"
+            } else if kind.is_char_device() || kind.is_block_device() {
+                "a device"
+            } else if kind.is_socket() {
+                "a socket"
+            } else {
+                "a special file"
+            }
+        }
+        #[cfg(not(unix))]
+        {
+            "a special file"
+        }
+    };
+    Err(std::io::Error::new(
+        std::io::ErrorKind::InvalidInput,
+        format!("not a regular file but {what}"),
+    ))
+}
+
+/// [`std::fs::read`] through [`open_regular`].
+pub fn read_regular(path: &Path) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let mut file = open_regular(path)?;
+    let mut bytes = Vec::new();
+    file.read_to_end(&mut bytes)?;
+    Ok(bytes)
+}
 
 /// Removes `.` components and folds `..` into the preceding normal component, without touching
 /// the file system (a leading `..` of a relative path is kept).

@@ -5,57 +5,7 @@ use super::CRACK_TOL;
 use super::stats::{DEGENERATE, FINITE, Prep};
 use super::weld::Buckets;
 
-/// Union-find over `u32` nodes. The larger root is always hooked under the smaller one, so each
-/// component's root is its smallest node (as in evaluate.py) and `parent[x] <= x` holds, which
-/// lets [`UnionFind::flatten`] resolve every node in one forward pass.
-#[derive(Clone)]
-pub(crate) struct UnionFind {
-    parent: Vec<u32>,
-}
-
-impl UnionFind {
-    pub fn new(n: usize) -> Self {
-        Self { parent: (0..n as u32).collect() }
-    }
-
-    /// The root of `x`, halving the path on the way.
-    #[inline]
-    pub fn find(&mut self, mut x: usize) -> usize {
-        loop {
-            let p = self.parent[x] as usize;
-            if p == x {
-                return x;
-            }
-            let gp = self.parent[p];
-            self.parent[x] = gp;
-            x = gp as usize;
-        }
-    }
-
-    #[inline]
-    pub fn union(&mut self, a: usize, b: usize) {
-        let (ra, rb) = (self.find(a), self.find(b));
-        if ra != rb {
-            let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
-            self.parent[hi] = lo as u32;
-        }
-    }
-
-    /// The number of components.
-    pub fn count_roots(&self) -> u64 {
-        self.parent.iter().enumerate().filter(|&(i, &p)| p as usize == i).count() as u64
-    }
-
-    /// The root (smallest node) of every node's component.
-    pub fn flatten(&mut self) -> Vec<u32> {
-        for x in 0..self.parent.len() {
-            // parent[x] < x for non-roots and is already resolved, so one lookup suffices.
-            let p = self.parent[x] as usize;
-            self.parent[x] = self.parent[p];
-        }
-        self.parent.clone()
-    }
-}
+pub(crate) use crate::union_find::UnionFind;
 
 /// The face of half-edge `h` (edge `h % 3` of face `h / 3`, corner `k` to corner `k + 1`) and the
 /// wedge its edge ends at.

@@ -4,8 +4,8 @@
 //! rig (`synth::rig_score`), so both tools are measured by the same code.
 
 use super::weld;
-use crate::build::smoothing;
 use crate::model::Model;
+use crate::photo_atlas::smoothing;
 use crate::texture::TileStore;
 
 /// A seam edge: face `f`'s edge from corner `k` to `k + 1`, shared with face `g` of another

@@ -262,7 +262,8 @@ impl<'a> Chart<'a> {
     /// Fills the neighbour lists with the faces whose boxes, widened by `widen`, meet, from a
     /// uniform grid whose cells are about twice the mean face box, so a face meets a handful of
     /// cells. Pairs of two settled faces are left out: they never clash, and no move reaches
-    /// them (their corners are fixed). On venus most faces are settled.
+    /// them (their corners are fixed). On real atlases most faces are settled, so this keeps
+    /// the search small.
     fn find_neighbours(&mut self, widen: f64) {
         let n = self.tri.len();
         let boxes: Vec<[f64; 4]> = (0..n as u32)
@@ -506,8 +507,8 @@ pub(crate) fn separate(
     }
     // A pair with every corner fixed (two faces of the anchor group, a texel centre on an edge,
     // or a face whose fixed corners came from different input vertices) cannot be separated by
-    // the moves, and detaching a face costs a second packing of the whole atlas (venus: 1.1 s
-    // for three faces). The fixed corners of both faces are freed instead (the centre may lie on
+    // the moves, and detaching a face costs a second packing of the whole atlas, however few
+    // faces it concerns. The fixed corners of both faces are freed instead (the centre may lie on
     // an edge the two faces share, which only its endpoints can move): the faces around them are
     // resampled, a few dozen faces.
     let mut freed = Vec::new();

@@ -4,7 +4,7 @@
 //! slow the stages they run beside.
 //!
 //! Why idle time for the figures: the input model's figures for the report are a pure function of the input, needed only
-//! at the end, and they cost about a third of a second on venus; the merge leaves a core idle
+//! at the end, and they cost a noticeable fraction of a second on large scans; the merge leaves a core idle
 //! part of the time (its master settles serial work while the shadow waits), so the figures can
 //! be had there for nothing. At normal priority the same thread would take its share of the
 //! cores from the merge's two threads, whose slowest path sets the run time. `SCHED_IDLE` runs it

@@ -11,15 +11,21 @@ use super::context::{RunContext, RunPaths, check_paths, tile_bytes};
 use crate::model::ImageSource;
 use crate::texture::encode::{EncodeOptions, write_image};
 use crate::texture::{ImageFormat, TileStore, decode};
+use crate::warnings::{Warning, check_strict};
 
 /// Options of a conversion.
 #[derive(Clone, Debug)]
 pub struct ConvertOptions {
     /// Texture format of the output sheets; `None` keeps each sheet's input format.
     pub texture_format: Option<ImageFormat>,
+    /// Quality (1 to 100) of JPEG sheets and of lossy WebP sheets.
     pub jpeg_quality: u8,
+    /// WebP sheets are lossy (at `jpeg_quality`) instead of lossless.
+    pub lossy_webp: bool,
     /// Folder for tile files; `None` = the output's folder.
     pub work_dir: Option<PathBuf>,
+    /// Refuse to convert a model that has warnings (see `warnings`).
+    pub strict: bool,
 }
 
 /// What a conversion did.
@@ -30,6 +36,8 @@ pub struct ConvertReport {
     pub read_seconds: f64,
     pub textures_seconds: f64,
     pub write_seconds: f64,
+    /// What the reader found that degrades the model (see `warnings`).
+    pub warnings: Vec<Warning>,
 }
 
 /// The file name of output sheet `k` of a model written to `output`.
@@ -73,6 +81,8 @@ pub fn convert(
     let t0 = Instant::now();
     let mut model = super::load_model(input)?;
     let read_seconds = t0.elapsed().as_secs_f64();
+    check_strict(opts.strict, &model.warnings)?;
+    crate::io::check_output(&model, output)?;
     let ctx = RunContext::open(&paths, Some(&model))?;
     let tiles = model.sheets.iter().filter_map(|s| s.size).map(|(w, h)| tile_bytes(w, h, 4)).max();
     ctx.check_space(tiles.unwrap_or(0), input_bytes(ctx.protected()))?;
@@ -91,6 +101,7 @@ pub fn convert(
         let enc = EncodeOptions {
             format: Some(format),
             jpeg_quality: opts.jpeg_quality,
+            webp_quality: opts.lossy_webp.then_some(opts.jpeg_quality),
             protect: ctx.protected().to_vec(),
         };
         write_image(&store, &path, &enc)?;
@@ -109,6 +120,7 @@ pub fn convert(
         read_seconds,
         textures_seconds,
         write_seconds: t2.elapsed().as_secs_f64(),
+        warnings: model.warnings,
     })
 }
 

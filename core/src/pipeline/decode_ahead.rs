@@ -1,7 +1,7 @@
 //! Decoding the input sheets on a thread of their own while the topology is prepared and the
 //! charts merge, so that the texture stage finds its tile stores ready.
 //!
-//! Why: on venus the decode of the 4096² JPEG took a sizeable share of the texture stage, and the
+//! Why: the decode of a large JPEG sheet takes a sizeable share of the texture stage, and the
 //! stages before it leave a core idle part of the time (preparation is mostly serial, and the
 //! merge's master waits on its shadow). The decode only reads the input images and writes tile
 //! files in the work directory, so running it early changes no result.

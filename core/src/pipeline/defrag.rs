@@ -39,7 +39,10 @@ pub struct DefragConfig {
     pub pack: PackOptions,
     /// Texture format of the output sheets; `None` keeps the format of the first input sheet.
     pub texture_format: Option<ImageFormat>,
+    /// Quality (1 to 100) of JPEG sheets and of lossy WebP sheets.
     pub jpeg_quality: u8,
+    /// WebP sheets are lossy (at `jpeg_quality`) instead of lossless.
+    pub lossy_webp: bool,
     /// Folder of the temporary tile files; `None` = the output's folder.
     pub work_dir: Option<PathBuf>,
     /// A report file the caller writes after the run: checked with the outputs before any work,
@@ -59,6 +62,8 @@ pub struct DefragConfig {
     /// is checked for folds, distortion and overlaps whatever it is.
     pub untangle_solver: String,
     pub untangle_solver_params: Params,
+    /// Refuse a model with warnings before any work (`--strict`; see `warnings`).
+    pub strict: bool,
 }
 
 impl Default for DefragConfig {
@@ -74,6 +79,7 @@ impl Default for DefragConfig {
             pack: PackOptions::default(),
             texture_format: None,
             jpeg_quality: 90,
+            lossy_webp: false,
             work_dir: None,
             report: None,
             metrics_overlaps: None,
@@ -81,6 +87,7 @@ impl Default for DefragConfig {
             untangle: Some(UntangleOptions::default()),
             untangle_solver: "slim".into(),
             untangle_solver_params: Params::new(),
+            strict: false,
         }
     }
 }
@@ -155,6 +162,8 @@ pub struct DefragReport {
     pub input_stats: AtlasStats,
     pub output_stats: AtlasStats,
     pub times: StageTimes,
+    /// What the reader found that degrades the input or the written output (see `warnings`).
+    pub warnings: Vec<crate::warnings::Warning>,
 }
 
 /// Whether the overlap raster of [`atlas_stats`] is cheap enough to run by default on a model
@@ -245,10 +254,14 @@ impl Emitted {
     }
 }
 
-/// The atlas figures of the written output, read back from the destination.
-fn output_stats(output: &Path, opts: &StatsOptions) -> Result<AtlasStats, PipelineError> {
+/// The atlas figures of the written output, read back from the destination, with what its
+/// reader noted about it.
+fn output_stats(
+    output: &Path,
+    opts: &StatsOptions,
+) -> Result<(AtlasStats, Vec<crate::warnings::Warning>), PipelineError> {
     let written = super::load_model(output)?;
-    Ok(atlas_stats(&written, &super::sheet_sizes(&written), opts))
+    Ok((atlas_stats(&written, &super::sheet_sizes(&written), opts), written.warnings))
 }
 
 /// Runs the pipeline on `input`, writing `output` (and its sheets `<stem>_<k>.<ext>` beside it),
@@ -279,6 +292,7 @@ pub fn defrag_with_progress(
     progress(DefragStage::Load);
     let t = Instant::now();
     let model = Arc::new(super::load_model(input)?);
+    crate::warnings::check_strict(cfg.strict, &model.warnings)?;
     check_pack_options(&cfg.pack, &model)?;
     let ctx = RunContext::open(&paths, Some(&model))?;
     let mut loaded = start_background(model, cfg, &ctx)?;
@@ -316,8 +330,9 @@ pub fn defrag_with_progress(
 
     progress(DefragStage::Metrics);
     let t = Instant::now();
-    let output_stats = output_stats(output, &stats_opts)?;
+    let (output_stats, output_warnings) = output_stats(output, &stats_opts)?;
     let (input_stats, _) = input_stats.finish();
+    let warnings = [&model.warnings[..], &output_warnings[..]].concat();
     times.metrics_ms = ms(t);
     times.total_ms = ms(t_all);
     Ok(DefragReport {
@@ -339,6 +354,7 @@ pub fn defrag_with_progress(
         input_stats,
         output_stats,
         times,
+        warnings,
     })
 }
 

@@ -72,6 +72,7 @@ pub(super) fn synthesize(
     let enc = EncodeOptions {
         format: Some(format),
         jpeg_quality: cfg.jpeg_quality,
+        webp_quality: cfg.lossy_webp.then_some(cfg.jpeg_quality),
         protect: ctx.protected().to_vec(),
     };
     let paths = super::convert::write_sheets(&out.sheets, &ctx.staged_output(), format, &enc)?;

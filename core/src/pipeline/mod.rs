@@ -58,6 +58,11 @@ pub enum PipelineError {
     Output(#[from] crate::output_set::OutputError),
     #[error(transparent)]
     Interrupted(#[from] crate::cancel::Interrupted),
+    /// Cameras or photos of a `build` that cannot be read or do not fit together.
+    #[error(transparent)]
+    Build(#[from] crate::photo_atlas::BuildError),
+    #[error(transparent)]
+    Strict(#[from] crate::warnings::StrictError),
 }
 
 /// Reads a model and fills in every sheet's size from its image header (no pixels decoded).

@@ -4,8 +4,8 @@
 //! Why: a merge moves the smaller chart rigidly onto the larger and re-optimizes only a patch
 //! around the seam, so the rest of the moved chart is still a rigid image of its input, turned by
 //! the fit. The anchor of the merged chart brings the heaviest such group back onto the input
-//! grid; every other group is resampled. On venus, after the merge, the second groups of the
-//! charts held 6.9% of the 3-D area. Made a chart of its own, such a group is anchored by itself,
+//! grid; every other group is resampled, and on real scans those second groups hold a
+//! noticeable share of the 3-D area. Made a chart of its own, such a group is anchored by itself,
 //! at the price of the seam the merge had dissolved there (longer UV border, more UV vertices).
 //! So a group is split off only when the fraction of the atlas's 3-D area it brings back onto the
 //! grid is at least `split_rigid_ratio` times the fraction by which its seam lengthens the UV

@@ -11,8 +11,7 @@ use rayon::prelude::*;
 use super::Shape;
 use super::rng::{fbm, hash3, signed_f64};
 
-/// Marks "no neighbour" (a boundary edge) in [`face_adjacency`].
-pub const NONE: u32 = u32::MAX;
+pub use crate::index::NONE;
 
 /// Fraction of a grid cell each vertex may move along the surface.
 const JITTER: f64 = 0.35;

@@ -20,7 +20,7 @@ mod pack;
 mod paint;
 pub mod rig;
 pub mod rig_score;
-mod rng;
+pub(crate) mod rng;
 pub use rng::XorShift64;
 #[cfg(test)]
 mod tests;
@@ -346,6 +346,7 @@ pub fn generate(params: &SynthParams, work_dir: &Path) -> Result<SynthOutput, Sy
             params.cameras,
             ch.len()
         )],
+        warnings: Vec::new(),
     };
     let t_charts = Instant::now();
 

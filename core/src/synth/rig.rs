@@ -9,9 +9,9 @@ use std::path::{Path, PathBuf};
 
 use super::color::{linear_to_srgb8, patchy_color, srgb8_to_linear, true_color};
 use super::{Shape, cameras, mesh};
-use crate::build::cameras::{Distortion, Intrinsics, PhotoCamera, Rig};
 use crate::index::VertexId;
 use crate::model::{Face, Model};
+use crate::photo_atlas::cameras::{Distortion, Intrinsics, PhotoCamera, Rig};
 use crate::texture::raster::{PixelRect, rasterize_triangle};
 use crate::texture::{PixelFormat, TileStore};
 
@@ -134,7 +134,9 @@ pub fn render(
         let p = t.map(|v| m.positions[v as usize]);
         let (nrm, _) = mesh::tri_normal(p);
         let cen = [0, 1, 2].map(|k| (p[0][k] + p[1][k] + p[2][k]) / 3.0);
-        if crate::build::cameras::dot(nrm, crate::build::cameras::sub(centre, cen)) <= 0.0 {
+        if crate::photo_atlas::cameras::dot(nrm, crate::photo_atlas::cameras::sub(centre, cen))
+            <= 0.0
+        {
             continue;
         }
         let mut tri = [[0.0; 2]; 3];
@@ -290,9 +292,9 @@ pub fn generate_rig(p: &RigParams, out: &Path) -> Result<RigOutput, super::Synth
     };
     rendered?;
     let rig = Rig { cameras: cams, source: out.to_path_buf() };
-    crate::build::colmap::write_text(&rig, &out.join("sparse")).map_err(err)?;
-    crate::build::colmap::write_binary(&rig, &out.join("sparse_bin")).map_err(err)?;
-    crate::build::bundler::write(&rig, &out.join("bundle")).map_err(err)?;
+    crate::photo_atlas::colmap::write_text(&rig, &out.join("sparse")).map_err(err)?;
+    crate::photo_atlas::colmap::write_binary(&rig, &out.join("sparse_bin")).map_err(err)?;
+    crate::photo_atlas::bundler::write(&rig, &out.join("bundle")).map_err(err)?;
     let model = Model {
         positions: m.positions.clone(),
         faces: m
@@ -426,7 +428,7 @@ mod tests {
         let out = generate_rig(&p, dir.path()).unwrap();
         assert_eq!(read_params(dir.path()).unwrap(), p);
         let xml = std::fs::read_to_string(&out.meshlab_project).unwrap();
-        let rig = crate::build::colmap::read_text(&out.colmap_text).unwrap();
+        let rig = crate::photo_atlas::colmap::read_text(&out.colmap_text).unwrap();
         let m = mesh::build(p.shape, p.faces, p.seed);
         let rasters: Vec<usize> = xml.match_indices("<MLRaster ").map(|(i, _)| i).collect();
         assert_eq!(rasters.len(), rig.cameras.len());

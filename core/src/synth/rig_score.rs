@@ -9,10 +9,10 @@
 use std::path::Path;
 
 use super::rig::{RigParams, read_params};
-use crate::build::cameras::{PhotoCamera, cross, dot, sub};
 use crate::metrics::seam::{chart_border_seams, seam_jump_against};
 use crate::metrics::{DEGEN_AREA_TEXELS, StatsOptions, atlas_stats, edge_chart_labels};
 use crate::model::Model;
+use crate::photo_atlas::cameras::{PhotoCamera, cross, dot, sub};
 use crate::texture::TileStore;
 
 /// Errors of [`score_files`].
@@ -23,7 +23,7 @@ pub enum ScoreError {
     #[error(transparent)]
     Model(#[from] crate::pipeline::PipelineError),
     #[error("rig cameras: {0}")]
-    Cameras(#[from] crate::build::BuildError),
+    Cameras(#[from] crate::photo_atlas::BuildError),
     #[error(transparent)]
     Texture(#[from] crate::texture::TextureError),
 }
@@ -88,7 +88,7 @@ pub struct RigScore {
 /// the model.
 pub fn score_files(rig_dir: &Path, model_path: &Path, work: &Path) -> Result<RigScore, ScoreError> {
     let params = read_params(rig_dir)?;
-    let rig = crate::build::read_rig(&rig_dir.join("sparse"), &rig_dir.join("images"))?;
+    let rig = crate::photo_atlas::read_rig(&rig_dir.join("sparse"), &rig_dir.join("images"))?;
     let rig_faces = crate::io::read_model(&rig_dir.join("mesh.obj"))
         .map_err(crate::pipeline::PipelineError::from)?
         .faces

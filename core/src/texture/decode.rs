@@ -1,5 +1,5 @@
-//! Decoders that fill a `TileStore` from PNG, JPEG, TIFF and OpenEXR without holding the whole
-//! decoded image in memory.
+//! Decoders that fill a `TileStore` from PNG, JPEG, TIFF, OpenEXR and WebP without holding the
+//! whole decoded image in memory (WebP excepted: see its codec).
 //!
 //! The format is recognised from the file's first bytes, never from its extension or declared
 //! MIME type. PNG is read row by row (interlaced images too), TIFF strip by strip or tile by tile
@@ -32,17 +32,12 @@ fn open_detect(src: &ImageSource) -> Result<(Opened<'_>, ImageFormat), TextureEr
         None => {
             let msg = match codec::other_kind(&op.head) {
                 Some(kind) => {
-                    format!("{kind} images are not supported (use PNG, JPEG, TIFF or OpenEXR)")
+                    format!(
+                        "{kind} images are not supported (use PNG, JPEG, TIFF, OpenEXR or WebP)"
+                    )
                 }
-                None => format!(
-                    "not a PNG, JPEG, TIFF or OpenEXR file (first bytes: {})",
-                    op.head
-                        .iter()
-                        .take(8)
-                        .map(|b| format!("{b:02x}"))
-                        .collect::<Vec<_>>()
-                        .join(" ")
-                ),
+                // The file's bytes are never quoted: a reference may point at a private file.
+                None => "not a PNG, JPEG, TIFF, OpenEXR or WebP file".to_string(),
             };
             Err(TextureError::Unsupported { image: op.name, msg })
         }
@@ -58,6 +53,7 @@ pub fn probe_size(src: &ImageSource) -> Result<(u32, u32), TextureError> {
         ImageFormat::Jpeg => codec::jpeg::probe(op)?,
         ImageFormat::Tiff => codec::tiff::probe(op)?,
         ImageFormat::Exr => codec::exr::probe(op)?,
+        ImageFormat::Webp => codec::webp::probe(op)?,
     };
     if w == 0 || h == 0 {
         return Err(TextureError::Size {
@@ -81,6 +77,7 @@ pub fn decode_to_store(src: &ImageSource, work_dir: &Path) -> Result<TileStore, 
         ImageFormat::Jpeg => codec::jpeg::decode(op, work_dir),
         ImageFormat::Tiff => codec::tiff::decode(op, work_dir),
         ImageFormat::Exr => codec::exr::decode(op, work_dir),
+        ImageFormat::Webp => codec::webp::decode(op, work_dir),
     };
     // The store reports its own size errors as "tile store"; name the image instead.
     store.map_err(|e| match e {

@@ -1,5 +1,5 @@
 //! Streaming encoders that write a `TileStore` as PNG (by rows), JPEG (by rows), tiled TIFF
-//! (BigTIFF past 4 GiB) or tiled OpenEXR, atomically.
+//! (BigTIFF past 4 GiB), tiled OpenEXR, or WebP (whole image, see the WebP codec), atomically.
 //!
 //! Every writer goes through [`AtomicFile`]: the image is written under a temporary name beside
 //! the target and renamed into place only when complete, so an error leaves neither a partial
@@ -23,13 +23,15 @@ pub struct EncodeOptions {
     pub format: Option<ImageFormat>,
     /// JPEG quality 1..=100.
     pub jpeg_quality: u8,
+    /// WebP: `None` lossless, `Some(q)` lossy at quality `q` (1..=100).
+    pub webp_quality: Option<u8>,
     /// Paths that must never be overwritten.
     pub protect: Vec<PathBuf>,
 }
 
 impl Default for EncodeOptions {
     fn default() -> Self {
-        Self { format: None, jpeg_quality: 90, protect: Vec::new() }
+        Self { format: None, jpeg_quality: 90, webp_quality: None, protect: Vec::new() }
     }
 }
 
@@ -42,7 +44,7 @@ pub fn write_image(
     let enc_err = |msg: String| TextureError::Encode { path: path.to_path_buf(), msg };
     let file_err = |e: std::io::Error| TextureError::File { path: path.to_path_buf(), source: e };
     let format = opts.format.or_else(|| ImageFormat::from_path(path)).ok_or_else(|| {
-        enc_err("no output format given and the extension is not png, jpg, tif or exr".into())
+        enc_err("no output format given and the extension is not png, jpg, tif, exr or webp".into())
     })?;
     // Checks that need no file come first, so a refusal creates nothing.
     if format == ImageFormat::Jpeg && (store.width() > 65535 || store.height() > 65535) {
@@ -53,6 +55,14 @@ pub fn write_image(
             msg: "JPEG cannot exceed 65535 pixels per side".into(),
         });
     }
+    if format == ImageFormat::Webp {
+        codec::webp::check_size(store).map_err(|msg| TextureError::Size {
+            image: path.display().to_string(),
+            width: store.width() as u64,
+            height: store.height() as u64,
+            msg,
+        })?;
+    }
     let mut file = AtomicFile::create(path, &opts.protect).map_err(file_err)?;
     {
         let mut w = file.writer();
@@ -61,6 +71,7 @@ pub fn write_image(
             ImageFormat::Jpeg => codec::jpeg::encode(store, &mut w, opts.jpeg_quality),
             ImageFormat::Tiff => codec::tiff::encode(store, &mut w),
             ImageFormat::Exr => codec::exr::encode(store, &mut w),
+            ImageFormat::Webp => codec::webp::encode(store, &mut w, opts.webp_quality),
         }
         .map_err(enc_err)?;
         w.flush().map_err(file_err)?;

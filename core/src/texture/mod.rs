@@ -86,6 +86,7 @@ pub enum ImageFormat {
     Jpeg,
     Tiff,
     Exr,
+    Webp,
 }
 
 impl ImageFormat {
@@ -97,6 +98,7 @@ impl ImageFormat {
             "jpg" | "jpeg" => Some(Self::Jpeg),
             "tif" | "tiff" => Some(Self::Tiff),
             "exr" => Some(Self::Exr),
+            "webp" => Some(Self::Webp),
             _ => None,
         }
     }
@@ -108,6 +110,7 @@ impl ImageFormat {
             "image/jpeg" | "image/jpg" => Some(Self::Jpeg),
             "image/tiff" => Some(Self::Tiff),
             "image/x-exr" | "image/exr" => Some(Self::Exr),
+            "image/webp" => Some(Self::Webp),
             _ => None,
         }
     }
@@ -126,6 +129,8 @@ impl ImageFormat {
             Some(Self::Tiff)
         } else if head.starts_with(&[0x76, 0x2F, 0x31, 0x01]) {
             Some(Self::Exr)
+        } else if head.len() >= 12 && &head[..4] == b"RIFF" && &head[8..12] == b"WEBP" {
+            Some(Self::Webp)
         } else {
             None
         }
@@ -134,7 +139,7 @@ impl ImageFormat {
     /// The format of an image source, from its first bytes (never from its name, which may lie).
     pub fn of_source(src: &crate::model::ImageSource) -> Result<Self, TextureError> {
         use std::io::Read;
-        let mut head = [0u8; 8];
+        let mut head = [0u8; 12];
         let n = match src {
             crate::model::ImageSource::File(path) => {
                 let mut f = std::fs::File::open(path)
@@ -143,14 +148,14 @@ impl ImageFormat {
                     .map_err(|e| TextureError::File { path: path.clone(), source: e })?
             }
             crate::model::ImageSource::Embedded { bytes, .. } => {
-                let n = bytes.len().min(8);
+                let n = bytes.len().min(12);
                 head[..n].copy_from_slice(&bytes[..n]);
                 n
             }
         };
         Self::from_magic(&head[..n]).ok_or_else(|| TextureError::Unsupported {
             image: src.describe(),
-            msg: "not a PNG, JPEG, TIFF or OpenEXR image".into(),
+            msg: "not a PNG, JPEG, TIFF, OpenEXR or WebP image".into(),
         })
     }
 
@@ -161,6 +166,7 @@ impl ImageFormat {
             Self::Jpeg => "jpg",
             Self::Tiff => "tif",
             Self::Exr => "exr",
+            Self::Webp => "webp",
         }
     }
 }

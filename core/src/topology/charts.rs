@@ -5,6 +5,7 @@ use super::edges::Adjacency;
 use super::ids::{ChartId, HalfEdgeId, PosId, UvVertId};
 use super::texel::{FrozenReasons, area_3d, rebase_shift, signed_area2};
 use crate::index::SheetId;
+use crate::union_find::UnionFind;
 
 /// A chart and the quantities the scorer reads from it (reference `FaceGroup::UpdateCache`).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -28,36 +29,6 @@ pub struct Chart {
     /// Texel-space bounding box `[min u, min v, max u, max v]` of its UV vertices (all zeros for a
     /// chart without usable UVs).
     pub bbox: [f64; 4],
-}
-
-/// Union-find over faces. Roots are always the smaller index, so the labelling does not depend
-/// on the order of unions.
-struct UnionFind {
-    parent: Vec<u32>,
-}
-
-impl UnionFind {
-    fn new(n: usize) -> Self {
-        Self { parent: (0..n as u32).collect() }
-    }
-
-    fn find(&mut self, mut x: u32) -> u32 {
-        while self.parent[x as usize] != x {
-            let p = self.parent[x as usize];
-            let gp = self.parent[p as usize];
-            self.parent[x as usize] = gp;
-            x = gp;
-        }
-        x
-    }
-
-    fn union(&mut self, a: u32, b: u32) {
-        let (ra, rb) = (self.find(a), self.find(b));
-        if ra != rb {
-            let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
-            self.parent[hi as usize] = lo;
-        }
-    }
 }
 
 /// The corners of two sides of one mesh edge, paired by welded position (never by corner order,
@@ -104,9 +75,9 @@ pub(crate) fn label_charts(
             }
             let [[a0, b0], [a1, b1]] = pair_corners(corner_pos, a, b);
             if corner_weld[a0] == corner_weld[b0] && corner_weld[a1] == corner_weld[b1] {
-                components.union(fa as u32, fb as u32);
+                components.union(fa, fb);
                 if face_flags[fa].is_isolated() == face_flags[fb].is_isolated() {
-                    charts.union(fa as u32, fb as u32);
+                    charts.union(fa, fb);
                 }
             }
         } else if e.n_sides > 1 {
@@ -123,10 +94,10 @@ pub(crate) fn label_charts(
             scratch.sort_unstable();
             for w in scratch.windows(2) {
                 if (w[0].0, w[0].1) == (w[1].0, w[1].1) {
-                    components.union(w[0].2, w[1].2);
+                    components.union(w[0].2 as usize, w[1].2 as usize);
                     let (f0, f1) = (w[0].2 as usize, w[1].2 as usize);
                     if face_flags[f0].is_isolated() == face_flags[f1].is_isolated() {
-                        charts.union(w[0].2, w[1].2);
+                        charts.union(w[0].2 as usize, w[1].2 as usize);
                     }
                 }
             }
@@ -137,13 +108,13 @@ pub(crate) fn label_charts(
     let mut n_charts = 0;
     let mut uv_components = 0;
     for (f, chart) in face_chart.iter_mut().enumerate() {
-        let r = charts.find(f as u32) as usize;
+        let r = charts.find(f);
         if label[r].is_none() {
             label[r] = ChartId::from_usize(n_charts);
             n_charts += 1;
         }
         *chart = label[r];
-        if components.find(f as u32) as usize == f {
+        if components.find(f) == f {
             uv_components += 1;
         }
     }

@@ -36,7 +36,7 @@ pub struct HorizonPacker {
     /// atlas trims to a square instead of a strip; it grows by 10% steps when an item does not
     /// fit. A pass starting at the full sheet width is run too (in parallel), and the smaller
     /// packing kept: on an atlas of about one sheet the square start strands charts in the
-    /// strip its growth steps leave (venus: 15.68 M texels against 15.37 M from the full width).
+    /// strip its growth steps leave.
     /// So is a pass whose sheets start 1/64 narrower than the full width (see [`Start`]).
     pub square: bool,
     /// Also run the passes of the [`Fit::Area`] rules and keep the densest packing of all.
@@ -59,9 +59,8 @@ struct Pass {
 /// The usable width a new sheet starts with; it grows by 10% steps when an item does not fit.
 ///
 /// A packing of charts this irregular is chaotic in its start: the same charts from a start 1/64
-/// narrower than the sheet came out 0.5–1.5% smaller on two of seven atlases (venus 14.88 M →
-/// 14.80 M cells; venus merged holding charts still, 15.02 M → 14.79 M) and no smaller or larger
-/// on the others, so both run and the densest is kept.
+/// narrower than the sheet came out a little smaller on some atlases and no smaller or larger on
+/// the others, so both run and the densest is kept.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Start {
     /// About a square that holds the remaining items (see `HorizonPacker::square`).
@@ -79,10 +78,8 @@ enum Start {
 /// horizon can rarely use again. `Area` minimizes `top · width · num / den + stranded cells`, the
 /// area the chart takes from the sheet up to its top plus what it strands: the weight trades a
 /// low top against a snug fit. No single rule wins on every atlas, so passes with each run and
-/// the densest packing is kept. Bounding-box cells of venus's 340 merged charts, full-width
-/// start: lowest top 15.38 M, weight ½ 14.88 M, weight 1 14.90 M (weight 2, 15.13 M, never won
-/// on seven atlases and is left out); meshroom's 96 charts: 1.98 M with weight 1 from the square
-/// start against 2.12 M with the lowest top.
+/// the densest packing is kept. Weights ½ and 1 both win on some atlases; weight 2 never won
+/// and is left out.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Fit {
     LowestTop,
@@ -378,8 +375,8 @@ impl Sheet {
             }
             // The same test on the sheet columns that ruled out the last swept position: the
             // obstacle stays put while the chart slides over it, so it usually rules out the
-            // next positions too, whichever column of the chart now lies over it (venus: 8.6 M
-            // sweeps of 199 M columns → 3.9 M of 68 M; packing 1.02 → 0.59 s).
+            // next positions too, whichever column of the chart now lies over it, which saves
+            // most of the sweeps.
             if contiguous && x <= sheet_floor.min(sheet_ceiling) {
                 let (cf, ck) = (sheet_floor as usize, sheet_ceiling as usize);
                 let f = p.cols[(sheet_floor - x) as usize];
@@ -489,8 +486,7 @@ impl Sheet {
         } else {
             // Within a turn the fit rule picks the position; across turns the lowest top wins
             // (the first turn of equals): the area keys of turns of different widths do not
-            // compare (venus, full width: 15.70 M and 16.68 M cells when they are compared,
-            // against 14.88 M and 14.90 M).
+            // compare, and comparing them gave clearly larger packings.
             let mut outer: Option<(u32, u32, u32, usize)> = None;
             for (i, p) in profiles.iter().enumerate() {
                 if let Some((_, x, y)) = self.best_outer(p, height, fit)

@@ -21,6 +21,8 @@
 //! triangle leaving that expected orientation.
 
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+
+use super::workspace::Workspace;
 use faer::sparse::linalg::cholesky::{LdltRef, LltRef, SymbolicCholesky};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
@@ -54,15 +56,15 @@ pub const STALL_LIMIT: u32 = 10;
 
 /// A solve that still has triangles out of their expected orientation stops once this many
 /// iterations in a row have undone none of them. Such a solve ends in a rejected merge (the
-/// engine's fold check), so going on only burns time: on venus, solves left with folds took 58% of
-/// all triangle-iterations, while of the 1,382 solves that undid every fold only 3 went more than
-/// 20 iterations between two undone folds (and 99% undid their last one by iteration 17).
+/// engine's fold check), so going on only burns time: solves left with folds take a large share
+/// of all iterations, while the solves that undo every fold almost never go this long between
+/// two undone folds.
 pub const UNFOLD_PATIENCE: u32 = 20;
 
 /// Up to this many free vertices the factorization is forced to be simplicial (see `solve`).
 pub const SIMPLICIAL_LIMIT: usize = 200_000;
 
-const NONE: u32 = u32::MAX;
+pub(super) use scanatlas_core::index::NONE;
 
 /// The tuning parameters of [`ArapSolver`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -157,9 +159,8 @@ struct TriData {
 /// total signed area), for every triangle. A triangle folded in the ORIGINAL layout is expected
 /// unfolded too, as the reference's orientation-free frames have it: the reflection-invariant
 /// energy calls the folded copy perfect, but a fold on a seam overlaps the chart fused across it.
-/// Keeping such folds (as we did before 2026-12-05) made 299 of meshroom's 336 overlap refusals
-/// (nearly all of them on a face folded in the input), and unfolding them halved the refusals
-/// and took the merge from 1.9 to 0.8 s.
+/// Keeping such folds made most of the overlap refusals on scans with faces folded in the input,
+/// and unfolding them halves those refusals and shortens the merge.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) struct OrientationState {
     patch: i8,
@@ -192,31 +193,14 @@ enum Factor {
 #[derive(Default)]
 pub struct ArapSolver {
     params: ArapParams,
-    /// Vertex → row of the reduced system, or `NONE` for fixed and unreferenced vertices.
-    row_of: Vec<u32>,
-    /// Row of the reduced system → vertex.
-    free: Vec<u32>,
-    /// Union-find parents over the vertices, and whether each set holds a fixed vertex.
-    parent: Vec<u32>,
-    anchored: Vec<bool>,
+    /// The numbering, matrix, right-hand side and iterates (shared with `slim`).
+    ws: Workspace,
     tris: Vec<TriData>,
-    /// The upper triangle of the reduced matrix in compressed-column form.
-    col_ptr: Vec<usize>,
-    row_idx: Vec<usize>,
-    values: Vec<f64>,
     /// Per-column fill cursor while building the pattern.
     cursor: Vec<usize>,
-    /// Numeric factor values.
-    l_values: Vec<f64>,
-    /// Right-hand side contributions of the fixed vertices (constant), and the full right-hand
-    /// side, column-major `n × 2` (u then v).
+    /// Right-hand side contributions of the fixed vertices (constant); the full right-hand side,
+    /// column-major `n × 2` (u then v), is the workspace's.
     rhs_fixed: Vec<f64>,
-    rhs: Vec<f64>,
-    /// The running iterate and the next one.
-    current: Vec<[f64; 2]>,
-    trial: Vec<[f64; 2]>,
-    /// faer's work space, grown on demand.
-    mem: Option<MemBuffer>,
 }
 
 impl std::fmt::Debug for ArapSolver {
@@ -250,66 +234,6 @@ pub(super) fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
 #[inline]
 pub(super) fn corners(uv: &[[f64; 2]], v: [u32; 3]) -> Tri2 {
     [uv[v[0] as usize], uv[v[1] as usize], uv[v[2] as usize]]
-}
-
-/// Marks the free vertices that some triangle uses, numbers them in order (`row_of`, `free`),
-/// and checks that every connected part of them reaches a fixed vertex: a part with none has no
-/// preferred position and its system is singular. Shared by every solver of this crate.
-pub(super) fn number_free_vertices(
-    problem: &LocalProblem,
-    parent: &mut Vec<u32>,
-    anchored: &mut Vec<bool>,
-    row_of: &mut Vec<u32>,
-    free: &mut Vec<u32>,
-) -> Result<(), SolveError> {
-    let n = problem.uv.len();
-    parent.clear();
-    parent.extend(0..n as u32);
-    for t in &problem.triangles {
-        let r0 = find(parent, t[0]);
-        for &v in &t[1..] {
-            let r = find(parent, v);
-            if r != r0 {
-                parent[r as usize] = r0;
-            }
-        }
-    }
-    anchored.clear();
-    anchored.resize(n, false);
-    row_of.clear();
-    row_of.resize(n, NONE);
-    // A free vertex takes part when some triangle uses it; unreferenced ones are left alone.
-    for t in &problem.triangles {
-        for &v in t {
-            if problem.fixed[v as usize] {
-                let r = find(parent, v);
-                anchored[r as usize] = true;
-            } else {
-                row_of[v as usize] = 0;
-            }
-        }
-    }
-    free.clear();
-    for v in 0..n as u32 {
-        if row_of[v as usize] == 0 {
-            let r = find(parent, v);
-            if !anchored[r as usize] {
-                return Err(SolveError::Unanchored);
-            }
-            row_of[v as usize] = free.len() as u32;
-            free.push(v);
-        }
-    }
-    Ok(())
-}
-
-pub(super) fn find(parent: &mut [u32], mut x: u32) -> u32 {
-    while parent[x as usize] != x {
-        let p = parent[x as usize];
-        parent[x as usize] = parent[p as usize];
-        x = p;
-    }
-    x
 }
 
 /// The weights `0.5·cot` of the target angle at each corner (for the opposite edge).
@@ -370,17 +294,6 @@ pub(super) fn local_frame(t: Tri2, sign: f64) -> ([[f64; 2]; 2], Option<Mat2>) {
 }
 
 impl ArapSolver {
-    /// Numbers the free vertices that take part in the system (see [`number_free_vertices`]).
-    fn number_free_vertices(&mut self, problem: &LocalProblem) -> Result<(), SolveError> {
-        number_free_vertices(
-            problem,
-            &mut self.parent,
-            &mut self.anchored,
-            &mut self.row_of,
-            &mut self.free,
-        )
-    }
-
     /// Frames, weights, expected orientations and flip guards of every triangle.
     ///
     /// The current layout is taken to be an image of the targets under rigid motions and at most
@@ -412,40 +325,40 @@ impl ArapSolver {
     /// Builds the sparsity pattern of the upper triangle (sorted rows, no duplicates) and the map
     /// from each triangle edge to its value slot.
     fn build_pattern(&mut self) {
-        let nf = self.free.len();
-        let row_of = &self.row_of;
+        let nf = self.ws.free.len();
+        let row_of = &self.ws.row_of;
         let edge_rows = |t: &TriData, k: usize| {
             let (a, b) = (row_of[t.v[(k + 1) % 3] as usize], row_of[t.v[(k + 2) % 3] as usize]);
             (a != NONE && b != NONE && a != b).then(|| (a.min(b) as usize, a.max(b) as usize))
         };
         // Counting sort by column: one diagonal entry per column plus every free-free edge.
-        self.col_ptr.clear();
-        self.col_ptr.resize(nf + 1, 0);
+        self.ws.col_ptr.clear();
+        self.ws.col_ptr.resize(nf + 1, 0);
         for c in 0..nf {
-            self.col_ptr[c + 1] = 1;
+            self.ws.col_ptr[c + 1] = 1;
         }
         for t in &self.tris {
             for k in 0..3 {
                 if let Some((_, c)) = edge_rows(t, k) {
-                    self.col_ptr[c + 1] += 1;
+                    self.ws.col_ptr[c + 1] += 1;
                 }
             }
         }
         for c in 0..nf {
-            self.col_ptr[c + 1] += self.col_ptr[c];
+            self.ws.col_ptr[c + 1] += self.ws.col_ptr[c];
         }
-        self.row_idx.clear();
-        self.row_idx.resize(self.col_ptr[nf], 0);
+        self.ws.row_idx.clear();
+        self.ws.row_idx.resize(self.ws.col_ptr[nf], 0);
         self.cursor.clear();
-        self.cursor.extend_from_slice(&self.col_ptr[..nf]);
+        self.cursor.extend_from_slice(&self.ws.col_ptr[..nf]);
         for c in 0..nf {
-            self.row_idx[self.cursor[c]] = c;
+            self.ws.row_idx[self.cursor[c]] = c;
             self.cursor[c] += 1;
         }
         for t in &self.tris {
             for k in 0..3 {
                 if let Some((r, c)) = edge_rows(t, k) {
-                    self.row_idx[self.cursor[c]] = r;
+                    self.ws.row_idx[self.cursor[c]] = r;
                     self.cursor[c] += 1;
                 }
             }
@@ -453,28 +366,28 @@ impl ArapSolver {
         // Sort and deduplicate each column in place, compacting towards the front.
         let mut out = 0;
         for c in 0..nf {
-            let (start, end) = (self.col_ptr[c], self.col_ptr[c + 1]);
-            self.row_idx[start..end].sort_unstable();
-            self.col_ptr[c] = out;
+            let (start, end) = (self.ws.col_ptr[c], self.ws.col_ptr[c + 1]);
+            self.ws.row_idx[start..end].sort_unstable();
+            self.ws.col_ptr[c] = out;
             let mut last = usize::MAX;
             for i in start..end {
-                let r = self.row_idx[i];
+                let r = self.ws.row_idx[i];
                 if r != last {
-                    self.row_idx[out] = r;
+                    self.ws.row_idx[out] = r;
                     out += 1;
                     last = r;
                 }
             }
         }
-        self.col_ptr[nf] = out;
-        self.row_idx.truncate(out);
+        self.ws.col_ptr[nf] = out;
+        self.ws.row_idx.truncate(out);
         // Slots of the off-diagonal entries (the diagonal of column c is its last entry).
         for i in 0..self.tris.len() {
             for k in 0..3 {
                 self.tris[i].slot[k] = match edge_rows(&self.tris[i], k) {
                     Some((r, c)) => {
-                        let (s, e) = (self.col_ptr[c], self.col_ptr[c + 1]);
-                        match self.row_idx[s..e].binary_search(&r) {
+                        let (s, e) = (self.ws.col_ptr[c], self.ws.col_ptr[c + 1]);
+                        match self.ws.row_idx[s..e].binary_search(&r) {
                             Ok(p) => (s + p) as u32,
                             Err(_) => NONE, // unreachable: every edge was inserted above
                         }
@@ -487,33 +400,33 @@ impl ArapSolver {
 
     /// Fills the matrix values and the constant right-hand side of the fixed neighbours.
     fn assemble(&mut self, uv: &[[f64; 2]]) {
-        let nf = self.free.len();
-        self.values.clear();
-        self.values.resize(self.row_idx.len(), 0.0);
+        let nf = self.ws.free.len();
+        self.ws.values.clear();
+        self.ws.values.resize(self.ws.row_idx.len(), 0.0);
         self.rhs_fixed.clear();
         self.rhs_fixed.resize(2 * nf, 0.0);
         for t in &self.tris {
             for k in 0..3 {
                 let w = t.w[k];
                 let (i, j) = (t.v[(k + 1) % 3], t.v[(k + 2) % 3]);
-                let (ri, rj) = (self.row_of[i as usize], self.row_of[j as usize]);
+                let (ri, rj) = (self.ws.row_of[i as usize], self.ws.row_of[j as usize]);
                 for (r, other, ro) in [(ri, j, rj), (rj, i, ri)] {
                     if r == NONE {
                         continue;
                     }
                     let r = r as usize;
-                    self.values[self.col_ptr[r + 1] - 1] += w;
+                    self.ws.values[self.ws.col_ptr[r + 1] - 1] += w;
                     if ro == NONE {
                         let p = uv[other as usize];
                         self.rhs_fixed[r] += w * p[0];
                         self.rhs_fixed[nf + r] += w * p[1];
                     } else if ro as usize == r {
                         // Both ends are the same vertex (a degenerate triangle): no coupling.
-                        self.values[self.col_ptr[r + 1] - 1] -= w;
+                        self.ws.values[self.ws.col_ptr[r + 1] - 1] -= w;
                     }
                 }
                 if t.slot[k] != NONE {
-                    self.values[t.slot[k] as usize] -= w;
+                    self.ws.values[t.slot[k] as usize] -= w;
                 }
             }
         }
@@ -521,39 +434,39 @@ impl ArapSolver {
 
     /// Makes sure faer's work space can hold `req`.
     fn reserve(&mut self, req: StackReq) -> Result<(), SolveError> {
-        let fits = match self.mem.as_mut() {
+        let fits = match self.ws.mem.as_mut() {
             Some(buf) => MemStack::new(buf).can_hold(req),
             None => false,
         };
         if !fits {
-            self.mem = None;
+            self.ws.mem = None;
             let buf = MemBuffer::try_new(req).map_err(|_| {
                 SolveError::Factorization("out of memory for the work space".into())
             })?;
-            self.mem = Some(buf);
+            self.ws.mem = Some(buf);
         }
         Ok(())
     }
 
     /// Numeric factorization: LLT, then LDLT, then LLT with a tiny diagonal shift.
     fn factorize(&mut self, symbolic: &SymbolicCholesky<usize>) -> Result<Factor, SolveError> {
-        let nf = self.free.len();
+        let nf = self.ws.free.len();
         let req = StackReq::any_of(&[
             symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
             symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default()),
             symbolic.solve_in_place_scratch::<f64>(2, Par::Seq),
         ]);
         self.reserve(req)?;
-        self.l_values.clear();
-        self.l_values.resize(symbolic.len_val(), 0.0);
-        let Some(buf) = self.mem.as_mut() else {
+        self.ws.l_values.clear();
+        self.ws.l_values.resize(symbolic.len_val(), 0.0);
+        let Some(buf) = self.ws.mem.as_mut() else {
             return Err(SolveError::Factorization("no work space".into()));
         };
         let pattern =
-            SymbolicSparseColMatRef::new_checked(nf, nf, &self.col_ptr, None, &self.row_idx);
-        let a = SparseColMatRef::new(pattern, &self.values);
+            SymbolicSparseColMatRef::new_checked(nf, nf, &self.ws.col_ptr, None, &self.ws.row_idx);
+        let a = SparseColMatRef::new(pattern, &self.ws.values);
         let llt = symbolic.factorize_numeric_llt(
-            &mut self.l_values,
+            &mut self.ws.l_values,
             a,
             Side::Upper,
             Default::default(),
@@ -565,7 +478,7 @@ impl ArapSolver {
             return Ok(Factor::Llt);
         }
         let ldlt = symbolic.factorize_numeric_ldlt(
-            &mut self.l_values,
+            &mut self.ws.l_values,
             a,
             Side::Upper,
             Default::default(),
@@ -573,21 +486,21 @@ impl ArapSolver {
             MemStack::new(buf),
             Default::default(),
         );
-        if ldlt.is_ok() && self.l_values.iter().all(|x| x.is_finite()) {
+        if ldlt.is_ok() && self.ws.l_values.iter().all(|x| x.is_finite()) {
             return Ok(Factor::Ldlt);
         }
         // Positive semi-definite but numerically singular: shift the diagonal by a tiny fraction
         // of its largest entry and try once more.
         let max_diag =
-            (0..nf).map(|c| self.values[self.col_ptr[c + 1] - 1].abs()).fold(0.0, f64::max);
+            (0..nf).map(|c| self.ws.values[self.ws.col_ptr[c + 1] - 1].abs()).fold(0.0, f64::max);
         let shift = 1e-12 * max_diag.max(f64::MIN_POSITIVE);
         for c in 0..nf {
-            self.values[self.col_ptr[c + 1] - 1] += shift;
+            self.ws.values[self.ws.col_ptr[c + 1] - 1] += shift;
         }
-        let a = SparseColMatRef::new(pattern, &self.values);
+        let a = SparseColMatRef::new(pattern, &self.ws.values);
         symbolic
             .factorize_numeric_llt(
-                &mut self.l_values,
+                &mut self.ws.l_values,
                 a,
                 Side::Upper,
                 Default::default(),
@@ -605,9 +518,9 @@ impl ArapSolver {
     /// the same Jacobians. The evaluation uses `closest_rotation_and_energy`, equal to the exact
     /// energy up to rounding; the energy returned to the caller is recomputed exactly.
     fn local_step(&mut self, uv: &[[f64; 2]], targets: &[Tri2]) -> Evaluation {
-        let nf = self.free.len();
-        self.rhs.clear();
-        self.rhs.extend_from_slice(&self.rhs_fixed);
+        let nf = self.ws.free.len();
+        self.ws.rhs.clear();
+        self.ws.rhs.extend_from_slice(&self.rhs_fixed);
         let mut sum = EnergySum::default();
         let mut admissible = true;
         let mut wrong = 0;
@@ -655,14 +568,14 @@ impl ArapSolver {
                     w * (rot[0][0] * e[0] + rot[0][1] * e[1]),
                     w * (rot[1][0] * e[0] + rot[1][1] * e[1]),
                 ];
-                let (ri, rj) = (self.row_of[t.v[ci] as usize], self.row_of[t.v[cj] as usize]);
+                let (ri, rj) = (self.ws.row_of[t.v[ci] as usize], self.ws.row_of[t.v[cj] as usize]);
                 if ri != NONE {
-                    self.rhs[ri as usize] += d[0];
-                    self.rhs[nf + ri as usize] += d[1];
+                    self.ws.rhs[ri as usize] += d[0];
+                    self.ws.rhs[nf + ri as usize] += d[1];
                 }
                 if rj != NONE {
-                    self.rhs[rj as usize] -= d[0];
-                    self.rhs[nf + rj as usize] -= d[1];
+                    self.ws.rhs[rj as usize] -= d[0];
+                    self.ws.rhs[nf + rj as usize] -= d[1];
                 }
             }
         }
@@ -670,7 +583,7 @@ impl ArapSolver {
     }
 
     /// The global step after [`Self::local_step`]: solves for the free vertices and writes the
-    /// next iterate (`uv` with them replaced) into `self.trial`. Returns false when the solution
+    /// next iterate (`uv` with them replaced) into `self.ws.trial`. Returns false when the solution
     /// is not finite.
     fn global_step(
         &mut self,
@@ -678,32 +591,32 @@ impl ArapSolver {
         symbolic: &SymbolicCholesky<usize>,
         factor: Factor,
     ) -> bool {
-        let nf = self.free.len();
-        let Some(buf) = self.mem.as_mut() else { return false };
+        let nf = self.ws.free.len();
+        let Some(buf) = self.ws.mem.as_mut() else { return false };
         let stack = MemStack::new(buf);
-        let x = MatMut::from_column_major_slice_mut(&mut self.rhs, nf, 2);
+        let x = MatMut::from_column_major_slice_mut(&mut self.ws.rhs, nf, 2);
         match factor {
-            Factor::Llt => LltRef::new(symbolic, &self.l_values).solve_in_place_with_conj(
+            Factor::Llt => LltRef::new(symbolic, &self.ws.l_values).solve_in_place_with_conj(
                 Conj::No,
                 x,
                 Par::Seq,
                 stack,
             ),
-            Factor::Ldlt => LdltRef::new(symbolic, &self.l_values).solve_in_place_with_conj(
+            Factor::Ldlt => LdltRef::new(symbolic, &self.ws.l_values).solve_in_place_with_conj(
                 Conj::No,
                 x,
                 Par::Seq,
                 stack,
             ),
         }
-        self.trial.clear();
-        self.trial.extend_from_slice(uv);
-        for (r, &v) in self.free.iter().enumerate() {
-            let p = [self.rhs[r], self.rhs[nf + r]];
+        self.ws.trial.clear();
+        self.ws.trial.extend_from_slice(uv);
+        for (r, &v) in self.ws.free.iter().enumerate() {
+            let p = [self.ws.rhs[r], self.ws.rhs[nf + r]];
             if !(p[0].is_finite() && p[1].is_finite()) {
                 return false;
             }
-            self.trial[v as usize] = p;
+            self.ws.trial[v as usize] = p;
         }
         true
     }
@@ -719,8 +632,8 @@ impl LocalSolver for ArapSolver {
         problem.validate()?;
         let mut energy = mean_energy(problem);
         let mut report = SolveReport { energy_before: energy, energy_after: energy, iterations: 0 };
-        self.number_free_vertices(problem)?;
-        if self.free.is_empty() || self.params.max_iterations == 0 {
+        self.ws.number_free_vertices(problem)?;
+        if self.ws.free.is_empty() || self.params.max_iterations == 0 {
             return Ok(report);
         }
         self.prepare_triangles(problem);
@@ -733,17 +646,17 @@ impl LocalSolver for ArapSolver {
         }
         self.build_pattern();
         self.assemble(&problem.uv);
-        let nf = self.free.len();
+        let nf = self.ws.free.len();
         // The factor is used for up to 100 solves, and faer's simplicial solve is about 4× faster
         // than its supernodal one at 100k unknowns (6 vs 25 ms for two right-hand sides) while its
         // factorization is only ~2× slower; measured here, the whole solve is faster simplicial at
         // 100k free vertices. Beyond `SIMPLICIAL_LIMIT` the better scaling of the supernodal
         // factorization is expected to win, so faer chooses.
         let symbolic =
-            super::symbolic_cholesky(nf, &self.col_ptr, &self.row_idx, SIMPLICIAL_LIMIT)?;
+            super::symbolic_cholesky(nf, &self.ws.col_ptr, &self.ws.row_idx, SIMPLICIAL_LIMIT)?;
         let factor = self.factorize(&symbolic)?;
 
-        // The iterates run on in `self.current`; `problem.uv` holds the best admissible one. An
+        // The iterates run on in `self.ws.current`; `problem.uv` holds the best admissible one. An
         // iterate that flips a guarded triangle or does not lower the best energy is not taken, but
         // the iteration goes on from it: slivers (common in real atlases, e.g. nearly collinear
         // corners snapped to the texel grid) flip transiently on the way to the optimum, and
@@ -753,19 +666,19 @@ impl LocalSolver for ArapSolver {
         // energy is not monotone: the isometric energy ignores the orientation that the ARAP
         // objective sees, so a rise alone does not end the run.) It also stops when folds remain
         // and `UNFOLD_PATIENCE` iterations have undone none of them.
-        self.current.clear();
-        self.current.extend_from_slice(&problem.uv);
+        self.ws.current.clear();
+        self.ws.current.extend_from_slice(&problem.uv);
         let mut running = energy;
         let mut stalled = 0;
         let mut taken = false;
         let mut last_unfold = 0;
-        // Each pass evaluates the iterate in `self.current` during its local step (the same
+        // Each pass evaluates the iterate in `self.ws.current` during its local step (the same
         // Jacobians serve both), decides whether to keep it and whether to stop, and only then
         // runs the global step towards the next iterate.
         loop {
-            let current = std::mem::take(&mut self.current);
+            let current = std::mem::take(&mut self.ws.current);
             let eval = self.local_step(&current, &problem.targets);
-            self.current = current;
+            self.ws.current = current;
             if report.iterations == 0 {
                 // The start, evaluated like every iterate so that comparisons are like for like.
                 energy = eval.energy;
@@ -773,8 +686,8 @@ impl LocalSolver for ArapSolver {
             } else {
                 let Evaluation { energy: next, admissible, wrong: next_wrong } = eval;
                 if admissible && (next_wrong < wrong || (next_wrong == wrong && next <= energy)) {
-                    for &v in &self.free {
-                        problem.uv[v as usize] = self.current[v as usize];
+                    for &v in &self.ws.free {
+                        problem.uv[v as usize] = self.ws.current[v as usize];
                     }
                     taken = true;
                     if next_wrong < wrong {
@@ -801,13 +714,13 @@ impl LocalSolver for ArapSolver {
                 break;
             }
             report.iterations += 1;
-            let current = std::mem::take(&mut self.current);
+            let current = std::mem::take(&mut self.ws.current);
             let finite = self.global_step(&current, &symbolic, factor);
-            self.current = current;
+            self.ws.current = current;
             if !finite {
                 return Err(SolveError::Diverged);
             }
-            std::mem::swap(&mut self.current, &mut self.trial);
+            std::mem::swap(&mut self.ws.current, &mut self.ws.trial);
         }
         if taken {
             report.energy_after = mean_energy(problem);

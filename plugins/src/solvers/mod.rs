@@ -2,6 +2,7 @@
 
 pub mod arap;
 pub mod slim;
+mod workspace;
 
 pub use arap::{ArapParams, ArapSolver};
 

@@ -31,9 +31,8 @@ use scanatlas_core::plugin::{
     Registry, SolveError, SolveReport,
 };
 
-use super::arap::{
-    ArapParams, ArapSolver, OrientationState, corners, local_frame, number_free_vertices, sub,
-};
+use super::arap::{ArapParams, ArapSolver, OrientationState, corners, local_frame, sub};
+use super::workspace::Workspace;
 
 /// The registered name of this solver.
 pub const NAME: &str = "slim";
@@ -58,7 +57,7 @@ pub const PROXIMAL: f64 = 1e-8;
 /// Up to this many unknowns the factorization is forced to be simplicial (see `arap`).
 pub const SIMPLICIAL_LIMIT: usize = 400_000;
 
-const NONE: u32 = u32::MAX;
+use scanatlas_core::index::NONE;
 
 /// How to get a start without flipped triangles.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -157,27 +156,16 @@ pub struct SlimSolver {
     params: SlimParams,
     /// The injective start for patches with flips.
     arap: ArapSolver,
-    row_of: Vec<u32>,
-    free: Vec<u32>,
-    parent: Vec<u32>,
-    anchored: Vec<bool>,
+    /// The numbering, the upper triangle of the 2·nf × 2·nf system, the right-hand side, the
+    /// running iterate and the trial point of the line search (shared with `arap`).
+    ws: Workspace,
     tris: Vec<TriData>,
-    /// Upper triangle of the 2·nf × 2·nf system, compressed columns.
-    col_ptr: Vec<usize>,
-    row_idx: Vec<usize>,
-    values: Vec<f64>,
     /// (column, row) pairs while building the pattern.
     pairs: Vec<(u32, u32)>,
-    l_values: Vec<f64>,
-    rhs: Vec<f64>,
-    /// The running iterate, the trial point of the line search, and the start (restored on
-    /// failure).
-    current: Vec<[f64; 2]>,
-    trial: Vec<[f64; 2]>,
+    /// The start (restored on failure).
     start: Vec<[f64; 2]>,
     /// Step direction per vertex (0 for fixed ones).
     dir: Vec<[f64; 2]>,
-    mem: Option<MemBuffer>,
 }
 
 impl std::fmt::Debug for SlimSolver {
@@ -198,22 +186,11 @@ impl SlimSolver {
         Self {
             params,
             arap: ArapSolver::new(ArapParams::default()),
-            row_of: Vec::new(),
-            free: Vec::new(),
-            parent: Vec::new(),
-            anchored: Vec::new(),
+            ws: Workspace::default(),
             tris: Vec::new(),
-            col_ptr: Vec::new(),
-            row_idx: Vec::new(),
-            values: Vec::new(),
             pairs: Vec::new(),
-            l_values: Vec::new(),
-            rhs: Vec::new(),
-            current: Vec::new(),
-            trial: Vec::new(),
             start: Vec::new(),
             dir: Vec::new(),
-            mem: None,
         }
     }
 
@@ -288,17 +265,6 @@ fn first_root(sign: f64, e1: [f64; 2], e2: [f64; 2], f1: [f64; 2], f2: [f64; 2])
 }
 
 impl SlimSolver {
-    /// Numbers the free vertices that take part in the system, as `arap` does.
-    fn number_free_vertices(&mut self, problem: &LocalProblem) -> Result<(), SolveError> {
-        number_free_vertices(
-            problem,
-            &mut self.parent,
-            &mut self.anchored,
-            &mut self.row_of,
-            &mut self.free,
-        )
-    }
-
     /// Frames, energy weights, expected orientations and guards of every triangle. Returns how
     /// many triangles that take part in the energy are not oriented as expected (SLIM cannot
     /// start while there is one: their energy is infinite).
@@ -343,12 +309,12 @@ impl SlimSolver {
     /// The pattern of the upper triangle of the system (every free unknown has its diagonal) and
     /// each triangle's value slots.
     fn build_pattern(&mut self) {
-        let n2 = 2 * self.free.len();
+        let n2 = 2 * self.ws.free.len();
         self.pairs.clear();
         for i in 0..n2 as u32 {
             self.pairs.push((i, i));
         }
-        let row_of = &self.row_of;
+        let row_of = &self.ws.row_of;
         for t in &self.tris {
             if t.area == 0.0 {
                 continue;
@@ -370,15 +336,15 @@ impl SlimSolver {
         }
         self.pairs.sort_unstable();
         self.pairs.dedup();
-        self.col_ptr.clear();
-        self.col_ptr.resize(n2 + 1, 0);
-        self.row_idx.clear();
+        self.ws.col_ptr.clear();
+        self.ws.col_ptr.resize(n2 + 1, 0);
+        self.ws.row_idx.clear();
         for &(c, r) in &self.pairs {
-            self.col_ptr[c as usize + 1] += 1;
-            self.row_idx.push(r as usize);
+            self.ws.col_ptr[c as usize + 1] += 1;
+            self.ws.row_idx.push(r as usize);
         }
         for c in 0..n2 {
-            self.col_ptr[c + 1] += self.col_ptr[c];
+            self.ws.col_ptr[c + 1] += self.ws.col_ptr[c];
         }
         for ti in 0..self.tris.len() {
             let t = self.tris[ti];
@@ -388,7 +354,8 @@ impl SlimSolver {
             let mut slot = [NONE; 36];
             for a in 0..3 {
                 for b in a..3 {
-                    let (ra, rb) = (self.row_of[t.v[a] as usize], self.row_of[t.v[b] as usize]);
+                    let (ra, rb) =
+                        (self.ws.row_of[t.v[a] as usize], self.ws.row_of[t.v[b] as usize]);
                     if ra == NONE || rb == NONE {
                         continue;
                     }
@@ -401,8 +368,8 @@ impl SlimSolver {
                             }
                             let (i, j) = ((2 * ra + s) as usize, (2 * rb + u) as usize);
                             let (r, c) = (i.min(j), i.max(j));
-                            let (lo, hi) = (self.col_ptr[c], self.col_ptr[c + 1]);
-                            if let Ok(p) = self.row_idx[lo..hi].binary_search(&r) {
+                            let (lo, hi) = (self.ws.col_ptr[c], self.ws.col_ptr[c + 1]);
+                            if let Ok(p) = self.ws.row_idx[lo..hi].binary_search(&r) {
                                 slot[(a * 3 + b) * 4 + (s * 2 + u) as usize] = (lo + p) as u32;
                             }
                         }
@@ -418,11 +385,11 @@ impl SlimSolver {
     // index loops read like the formulas.
     #[allow(clippy::needless_range_loop)]
     fn assemble(&mut self, uv: &[[f64; 2]]) {
-        let nf = self.free.len();
-        self.values.clear();
-        self.values.resize(self.row_idx.len(), 0.0);
-        self.rhs.clear();
-        self.rhs.resize(2 * nf, 0.0);
+        let nf = self.ws.free.len();
+        self.ws.values.clear();
+        self.ws.values.resize(self.ws.row_idx.len(), 0.0);
+        self.ws.rhs.clear();
+        self.ws.rhs.resize(2 * nf, 0.0);
         for t in &self.tris {
             if t.area == 0.0 {
                 continue;
@@ -446,16 +413,16 @@ impl SlimSolver {
             }
             let area = t.area;
             for a in 0..3 {
-                let ra = self.row_of[t.v[a] as usize];
+                let ra = self.ws.row_of[t.v[a] as usize];
                 if ra != NONE {
                     let ga = t.g[a];
                     for sc in 0..2 {
-                        self.rhs[2 * ra as usize + sc] +=
+                        self.ws.rhs[2 * ra as usize + sc] +=
                             area * (ga[0] * q[sc][0] + ga[1] * q[sc][1]);
                     }
                 }
                 for b in a..3 {
-                    let rb = self.row_of[t.v[b] as usize];
+                    let rb = self.ws.row_of[t.v[b] as usize];
                     let gb = t.g[b];
                     let k = area * (t.g[a][0] * gb[0] + t.g[a][1] * gb[1]);
                     if ra != NONE && rb != NONE {
@@ -463,7 +430,7 @@ impl SlimSolver {
                             for c in 0..2 {
                                 let slot = t.slot[(a * 3 + b) * 4 + s * 2 + c];
                                 if slot != NONE {
-                                    self.values[slot as usize] += k * m[s][c];
+                                    self.ws.values[slot as usize] += k * m[s][c];
                                 }
                             }
                         }
@@ -480,7 +447,8 @@ impl SlimSolver {
                         };
                         let x = uv[other as usize];
                         for s in 0..2 {
-                            self.rhs[2 * r as usize + s] -= k * (m[s][0] * x[0] + m[s][1] * x[1]);
+                            self.ws.rhs[2 * r as usize + s] -=
+                                k * (m[s][0] * x[0] + m[s][1] * x[1]);
                         }
                     }
                 }
@@ -488,30 +456,30 @@ impl SlimSolver {
         }
         // The proximal term λ‖x − x_k‖²: diagonal shift plus λ·x_k on the right-hand side.
         let n2 = 2 * nf;
-        let mean_diag =
-            (0..n2).map(|c| self.values[self.col_ptr[c + 1] - 1]).sum::<f64>() / n2.max(1) as f64;
+        let mean_diag = (0..n2).map(|c| self.ws.values[self.ws.col_ptr[c + 1] - 1]).sum::<f64>()
+            / n2.max(1) as f64;
         let lambda = PROXIMAL * mean_diag.max(f64::MIN_POSITIVE);
-        for (r, &vtx) in self.free.iter().enumerate() {
+        for (r, &vtx) in self.ws.free.iter().enumerate() {
             let x = uv[vtx as usize];
             for s in 0..2 {
                 let c = 2 * r + s;
-                self.values[self.col_ptr[c + 1] - 1] += lambda;
-                self.rhs[c] += lambda * x[s];
+                self.ws.values[self.ws.col_ptr[c + 1] - 1] += lambda;
+                self.ws.rhs[c] += lambda * x[s];
             }
         }
     }
 
     fn reserve(&mut self, req: StackReq) -> Result<(), SolveError> {
-        let fits = match self.mem.as_mut() {
+        let fits = match self.ws.mem.as_mut() {
             Some(buf) => MemStack::new(buf).can_hold(req),
             None => false,
         };
         if !fits {
-            self.mem = None;
+            self.ws.mem = None;
             let buf = MemBuffer::try_new(req).map_err(|_| {
                 SolveError::Factorization("out of memory for the work space".into())
             })?;
-            self.mem = Some(buf);
+            self.ws.mem = Some(buf);
         }
         Ok(())
     }
@@ -521,23 +489,23 @@ impl SlimSolver {
         &mut self,
         symbolic: &SymbolicCholesky<usize>,
     ) -> Result<(), SolveError> {
-        let n2 = 2 * self.free.len();
+        let n2 = 2 * self.ws.free.len();
         let req = StackReq::any_of(&[
             symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
             symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
         ]);
         self.reserve(req)?;
-        self.l_values.clear();
-        self.l_values.resize(symbolic.len_val(), 0.0);
-        let Some(buf) = self.mem.as_mut() else {
+        self.ws.l_values.clear();
+        self.ws.l_values.resize(symbolic.len_val(), 0.0);
+        let Some(buf) = self.ws.mem.as_mut() else {
             return Err(SolveError::Factorization("no work space".into()));
         };
         let pattern =
-            SymbolicSparseColMatRef::new_checked(n2, n2, &self.col_ptr, None, &self.row_idx);
-        let a = SparseColMatRef::new(pattern, &self.values);
+            SymbolicSparseColMatRef::new_checked(n2, n2, &self.ws.col_ptr, None, &self.ws.row_idx);
+        let a = SparseColMatRef::new(pattern, &self.ws.values);
         symbolic
             .factorize_numeric_llt(
-                &mut self.l_values,
+                &mut self.ws.l_values,
                 a,
                 Side::Upper,
                 Default::default(),
@@ -546,14 +514,14 @@ impl SlimSolver {
                 Default::default(),
             )
             .map_err(|e| SolveError::Factorization(format!("{e:?}")))?;
-        let x = MatMut::from_column_major_slice_mut(&mut self.rhs, n2, 1);
-        LltRef::new(symbolic, &self.l_values).solve_in_place_with_conj(
+        let x = MatMut::from_column_major_slice_mut(&mut self.ws.rhs, n2, 1);
+        LltRef::new(symbolic, &self.ws.l_values).solve_in_place_with_conj(
             Conj::No,
             x,
             Par::Seq,
             MemStack::new(buf),
         );
-        if self.rhs.iter().all(|x| x.is_finite()) { Ok(()) } else { Err(SolveError::Diverged) }
+        if self.ws.rhs.iter().all(|x| x.is_finite()) { Ok(()) } else { Err(SolveError::Diverged) }
     }
 
     /// Σ area · (‖J‖² (1 + 1/det²) − 4) over the energy triangles: the excess symmetric Dirichlet
@@ -610,39 +578,39 @@ impl SlimSolver {
         mut best: f64,
     ) -> Result<(f64, u32), SolveError> {
         self.build_pattern();
-        let n2 = 2 * self.free.len();
+        let n2 = 2 * self.ws.free.len();
         let symbolic =
-            super::symbolic_cholesky(n2, &self.col_ptr, &self.row_idx, SIMPLICIAL_LIMIT)?;
-        self.current.clear();
-        self.current.extend_from_slice(&problem.uv);
-        self.trial.clear();
-        self.trial.extend_from_slice(&problem.uv);
+            super::symbolic_cholesky(n2, &self.ws.col_ptr, &self.ws.row_idx, SIMPLICIAL_LIMIT)?;
+        self.ws.current.clear();
+        self.ws.current.extend_from_slice(&problem.uv);
+        self.ws.trial.clear();
+        self.ws.trial.extend_from_slice(&problem.uv);
         self.dir.clear();
         self.dir.resize(problem.uv.len(), [0.0; 2]);
-        let mut energy = self.excess(&self.current);
+        let mut energy = self.excess(&self.ws.current);
         let mut iterations = 0;
         while iterations < self.params.max_iterations && energy > 0.0 && energy.is_finite() {
             iterations += 1;
-            let current = std::mem::take(&mut self.current);
+            let current = std::mem::take(&mut self.ws.current);
             self.assemble(&current);
             let solved = self.factorize_and_solve(&symbolic);
-            self.current = current;
+            self.ws.current = current;
             solved?;
-            for (r, &v) in self.free.iter().enumerate() {
-                let x = self.current[v as usize];
-                self.dir[v as usize] = [self.rhs[2 * r] - x[0], self.rhs[2 * r + 1] - x[1]];
+            for (r, &v) in self.ws.free.iter().enumerate() {
+                let x = self.ws.current[v as usize];
+                self.dir[v as usize] = [self.ws.rhs[2 * r] - x[0], self.ws.rhs[2 * r + 1] - x[1]];
             }
             // Flip-free step cap, then backtracking until the energy decreases and the exact
             // predicate agrees that nothing flipped.
-            let mut step = (STEP_SAFETY * self.max_step(&self.current)).min(1.0);
+            let mut step = (STEP_SAFETY * self.max_step(&self.ws.current)).min(1.0);
             let mut next = f64::INFINITY;
             for _ in 0..MAX_HALVINGS {
-                for &v in &self.free {
-                    let (x, d) = (self.current[v as usize], self.dir[v as usize]);
-                    self.trial[v as usize] = [x[0] + step * d[0], x[1] + step * d[1]];
+                for &v in &self.ws.free {
+                    let (x, d) = (self.ws.current[v as usize], self.dir[v as usize]);
+                    self.ws.trial[v as usize] = [x[0] + step * d[0], x[1] + step * d[1]];
                 }
-                next = self.excess(&self.trial);
-                if next < energy && self.keeps_orientation(&self.trial) {
+                next = self.excess(&self.ws.trial);
+                if next < energy && self.keeps_orientation(&self.ws.trial) {
                     break;
                 }
                 next = f64::INFINITY;
@@ -651,14 +619,14 @@ impl SlimSolver {
             if !next.is_finite() {
                 break; // no decrease along the SLIM direction: converged as far as it goes
             }
-            std::mem::swap(&mut self.current, &mut self.trial);
+            std::mem::swap(&mut self.ws.current, &mut self.ws.trial);
             let change = (energy - next) / energy;
             energy = next;
-            let iso = isometric(problem, &self.current);
+            let iso = isometric(problem, &self.ws.current);
             if iso < best {
                 best = iso;
-                for &v in &self.free {
-                    problem.uv[v as usize] = self.current[v as usize];
+                for &v in &self.ws.free {
+                    problem.uv[v as usize] = self.ws.current[v as usize];
                 }
             }
             if change < self.params.tolerance {
@@ -674,8 +642,8 @@ impl LocalSolver for SlimSolver {
         problem.validate()?;
         let energy = isometric(problem, &problem.uv);
         let mut report = SolveReport { energy_before: energy, energy_after: energy, iterations: 0 };
-        self.number_free_vertices(problem)?;
-        if self.free.is_empty() || self.params.max_iterations == 0 {
+        self.ws.number_free_vertices(problem)?;
+        if self.ws.free.is_empty() || self.params.max_iterations == 0 {
             return Ok(report);
         }
         // One orientation state for the whole solve, so the `arap` start and the SLIM iterations

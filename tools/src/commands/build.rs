@@ -2,8 +2,8 @@
 //! registered photographs.
 
 use anyhow::Result;
-use scanatlas_core::build::seam_placement::SeamPlacementOptions;
-use scanatlas_core::pipeline::build::{BuildConfig, build};
+use scanatlas_core::photo_atlas::seam_placement::SeamPlacementOptions;
+use scanatlas_core::pipeline::build::{BuildConfig, build_with_progress};
 use scanatlas_core::pipeline::context::{RunPaths, check_paths};
 use scanatlas_core::plugin::Registry;
 use scanatlas_core::plugin::{Params, PluginKind};
@@ -11,11 +11,9 @@ use scanatlas_core::plugin::{Params, PluginKind};
 use crate::cli::BuildArgs;
 use crate::progress::Stage;
 
-pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
-    let mut registry = Registry::default();
-    scanatlas_plugins::register_builtin(&mut registry);
-    check_usage(args, &registry)?;
-    let cfg = BuildConfig {
+/// The build configuration the arguments ask for.
+pub fn build_config(args: &BuildArgs) -> BuildConfig {
+    BuildConfig {
         packer: args.packer.clone(),
         max_sheet_size: args.max_sheet_size,
         smoothing: !args.no_smoothing,
@@ -28,16 +26,39 @@ pub fn run(args: &BuildArgs, quiet: bool) -> Result<()> {
             ..SeamPlacementOptions::default()
         },
         ..BuildConfig::default()
-    };
-    let stage = Stage::spinner("building the atlas", quiet);
-    // Not mapped to bad usage: the build pipeline reports data errors (a missing photo) as
-    // `PipelineError::Usage` too; its real usage mistakes are caught by `check_usage`.
-    let report = build(&args.mesh, &args.cameras, &args.images, &args.output, &registry, &cfg)?;
-    stage.finish();
+    }
+}
+
+pub fn run(args: &BuildArgs, quiet: bool, strict: bool) -> Result<()> {
+    let mut registry = Registry::default();
+    scanatlas_plugins::register_builtin(&mut registry);
+    check_usage(args, &registry)?;
+    let mut cfg = build_config(args);
+    cfg.strict = strict;
+    let mut stage: Option<Stage> = None;
+    let (mesh, cameras, images) = (&args.mesh, &args.cameras, &args.images);
+    let report =
+        build_with_progress(mesh, cameras, images, &args.output, &registry, &cfg, &mut |s| {
+            if let Some(old) = stage.take() {
+                old.finish();
+            }
+            stage = Some(Stage::spinner(s.label(), quiet));
+        });
+    if let Some(old) = stage.take() {
+        old.finish();
+    }
+    let report = report.map_err(|e| super::defrag::usage_or_failure(e.into()))?;
+    tracing::info!("build finished in {:.1} s", report.times.total_ms / 1e3);
     if let Some(p) = &args.report {
         let json = serde_json::to_string_pretty(&report)?;
         let protect = [args.mesh.clone(), args.cameras.clone(), args.output.clone()];
         super::defrag::write_report(p, json.as_bytes(), &protect)?;
+    }
+    super::report_warnings(&report.warnings, strict)?;
+    if let Some(dir) = &args.report_dir {
+        let run = serde_json::to_value(&report)?;
+        let jump = (report.seam_jump_before, report.seam_jump_after);
+        super::report::after_build(dir, &args.output, &run, jump, &args.report_pictures, quiet)?;
     }
     if !quiet {
         if let Some(sp) = &report.seam_placement {

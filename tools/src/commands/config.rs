@@ -316,6 +316,7 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
         },
         texture_format: args.texture_format.map(super::defrag::image_format),
         jpeg_quality,
+        lossy_webp: args.texture_format.is_some_and(crate::cli::TextureFormatArg::is_lossy_webp),
         work_dir: args.work_dir.clone(),
         report: args.report.clone(),
         metrics_overlaps: None,

@@ -18,6 +18,7 @@ pub fn image_format(f: TextureFormatArg) -> ImageFormat {
         TextureFormatArg::Jpg => ImageFormat::Jpeg,
         TextureFormatArg::Tiff => ImageFormat::Tiff,
         TextureFormatArg::Exr => ImageFormat::Exr,
+        TextureFormatArg::Webp | TextureFormatArg::WebpLossy => ImageFormat::Webp,
     }
 }
 
@@ -69,6 +70,7 @@ pub fn run_pipeline(
         if let Some(old) = stage.take() {
             old.finish();
         }
+        tracing::info!("stage: {}", s.label());
         stage = Some(Stage::spinner(s.label(), quiet));
     });
     if let Some(old) = stage.take() {
@@ -77,10 +79,11 @@ pub fn run_pipeline(
     Ok(report?)
 }
 
-pub fn run(args: &DefragArgs, quiet: bool) -> Result<()> {
+pub fn run(args: &DefragArgs, quiet: bool, strict: bool) -> Result<()> {
     // Every name and parameter is checked (exit status 2) before the model is read; the output
     // and report paths are checked by the pipeline before any work.
-    let cfg = super::config::defrag_config(args, &builtin_registry())?;
+    let mut cfg = super::config::defrag_config(args, &builtin_registry())?;
+    cfg.strict = strict;
     let paths = RunPaths {
         inputs: std::slice::from_ref(&args.input),
         output: &args.output,
@@ -105,32 +108,42 @@ pub fn run(args: &DefragArgs, quiet: bool) -> Result<()> {
         write_report(path, &json, &[args.input.clone(), args.output.clone()])?;
     }
     let report = result?;
-    if !quiet {
-        let m = &report.merge;
-        eprintln!(
-            "wrote {}: charts {} -> {}, merges {} accepted of {} attempted, energy {:.4}, UV border {:.0} -> {:.0} texels, {:.1} s",
-            args.output.display(),
-            m.charts_before,
-            m.charts_after,
-            m.accepted,
-            m.attempted,
-            m.energy_after,
-            m.uv_border_before,
-            m.uv_border_after,
-            report.times.total_ms / 1e3
-        );
-        if let Some(p) = &report.pack {
-            eprintln!(
-                "packed {} charts on {} sheets ({} texels, occupancy {:.3}), grid-preserved area {:.3}; solidity {:.4} -> {:.4}",
-                p.charts,
-                p.sheets,
-                p.texels,
-                p.occupancy,
-                p.preserved_area_fraction,
-                report.input_stats.atlas_solidity.unwrap_or(0.0),
-                report.output_stats.atlas_solidity.unwrap_or(0.0)
-            );
-        }
+    tracing::info!("defrag finished in {:.1} s", report.times.total_ms / 1e3);
+    super::report_warnings(&report.warnings, strict)?;
+    print_summary(&report, quiet);
+    if let Some(dir) = &args.report_dir {
+        super::report::after_defrag(dir, &report, &args.report_pictures, quiet)?;
     }
     Ok(())
+}
+
+/// The end-of-run summary on stderr: the headline in plain words (sheet sizes, texel change,
+/// charts, the surface copied texel for texel, defects, lost faces), then the merge and packing
+/// figures for those who tune the run.
+fn print_summary(report: &DefragReport, quiet: bool) {
+    if quiet {
+        return;
+    }
+    let headline = scanatlas_core::report::Figures::from_defrag(report).headline;
+    eprintln!("wrote {}: {headline}", report.output.display());
+    let m = &report.merge;
+    eprintln!(
+        "  merges {} accepted of {} attempted, distortion {:.4}, UV border {:.0} -> {:.0} texels, {:.1} s",
+        m.accepted,
+        m.attempted,
+        m.energy_after,
+        m.uv_border_before,
+        m.uv_border_after,
+        report.times.total_ms / 1e3
+    );
+    if let Some(p) = &report.pack {
+        eprintln!(
+            "  packed {} charts on {} sheets, occupancy {:.0}%, solidity {:.4} -> {:.4}",
+            p.charts,
+            p.sheets,
+            100.0 * p.occupancy,
+            report.input_stats.atlas_solidity.unwrap_or(0.0),
+            report.output_stats.atlas_solidity.unwrap_or(0.0)
+        );
+    }
 }

@@ -1,8 +1,6 @@
 //! `scanatlas demo [OUT_DIR]`: the zero-input main command. Makes a small synthetic scan, runs the
 //! full defragmentation on it into the same folder and prints before/after figures.
 
-use std::path::PathBuf;
-
 use anyhow::Result;
 use scanatlas_core::metrics::AtlasStats;
 use scanatlas_core::pipeline::defrag::DefragConfig;
@@ -15,7 +13,10 @@ fn figure(x: Option<f64>) -> String {
 }
 
 pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
-    let out_dir = args.out_dir.clone().unwrap_or_else(|| PathBuf::from("scanatlas-demo"));
+    // By default the demo writes to the temporary folder, so that running it inside a source
+    // tree leaves no untracked files there; the first line printed names the folder.
+    let out_dir =
+        args.out_dir.clone().unwrap_or_else(|| std::env::temp_dir().join("scanatlas-demo"));
     let params = SynthParams {
         shape: Shape::Blob,
         faces: 20_000,

@@ -1,17 +1,22 @@
 //! Dispatch of the subcommands.
 
-mod build;
-mod config;
+mod batch;
+pub mod build;
+mod completions;
+pub mod config;
 mod convert;
-mod defrag;
+pub mod defrag;
 mod demo;
+mod man;
 mod plugins;
+mod report;
 mod rig_score;
 mod stats;
 mod synth;
 mod synth_rig;
 
 use anyhow::Result;
+use scanatlas_core::warnings::{Warning, check_strict};
 
 use crate::cli::{Cli, Command};
 
@@ -28,17 +33,36 @@ impl std::fmt::Display for UsageError {
 
 impl std::error::Error for UsageError {}
 
+/// Prints each warning as a `scanatlas: warning:` line on stderr (with `--quiet` too: warnings
+/// are what an unattended run must not hide) and, with `--strict`, fails when there is any.
+pub fn report_warnings(warnings: &[Warning], strict: bool) -> Result<()> {
+    for w in warnings {
+        eprintln!("scanatlas: warning: {w}");
+    }
+    check_strict(strict, warnings)?;
+    Ok(())
+}
+
 pub fn run(cli: Cli) -> Result<()> {
     let quiet = cli.global.quiet;
+    let strict = cli.global.strict;
+    if cli.global.confine {
+        scanatlas_core::io::set_confinement(true);
+    }
     match cli.command {
-        Command::Stats(a) => stats::run(&a),
+        Command::Stats(a) => stats::run(&a, strict),
         Command::Synth(a) => synth::run(&a, quiet),
         Command::Demo(a) => demo::run(&a, quiet),
-        Command::Convert(a) => convert::run(&a, quiet),
-        Command::Defrag(a) => defrag::run(&a, quiet),
+        Command::Convert(a) => convert::run(&a, quiet, strict),
+        Command::Defrag(a) => defrag::run(&a, quiet, strict),
         Command::Plugins(a) => plugins::run(&a),
-        Command::Build(a) => build::run(&a, quiet),
+        Command::Build(a) => build::run(&a, quiet, strict),
         Command::SynthRig(a) => synth_rig::run(&a, quiet),
         Command::RigScore(a) => rig_score::run(&a),
+        Command::Batch(a) => batch::run(&a, &cli.global),
+        Command::BatchSummary(a) => batch::summary::run(&a),
+        Command::Completions(a) => completions::run(&a),
+        Command::Man(a) => man::run(&a),
+        Command::Report(a) => report::run(&a, quiet),
     }
 }

@@ -6,8 +6,9 @@ use scanatlas_core::pipeline;
 
 use crate::cli::StatsArgs;
 
-pub fn run(args: &StatsArgs) -> Result<()> {
+pub fn run(args: &StatsArgs, strict: bool) -> Result<()> {
     let model = pipeline::load_model(&args.model)?;
+    super::report_warnings(&model.warnings, strict)?;
     let stats = atlas_stats(
         &model,
         &pipeline::sheet_sizes(&model),

@@ -54,7 +54,7 @@ impl Comp {
 }
 
 /// Number of components of an accessor `type`.
-fn type_components(t: &str) -> Option<usize> {
+pub(super) fn type_components(t: &str) -> Option<usize> {
     Some(match t {
         "SCALAR" => 1,
         "VEC2" => 2,

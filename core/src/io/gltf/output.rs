@@ -208,6 +208,47 @@ pub(super) fn set_image_source(
     Ok(())
 }
 
+/// Moves the `source` of every texture whose image is WebP into the `EXT_texture_webp` extension
+/// (required), since core glTF allows only PNG and JPEG images as a texture's `source`.
+fn webp_textures(doc: &mut Map<String, Value>) {
+    let is_webp = |img: &Value| {
+        img.get("mimeType").and_then(Value::as_str) == Some("image/webp")
+            || img
+                .get("uri")
+                .and_then(Value::as_str)
+                .is_some_and(|u| u.to_ascii_lowercase().ends_with(".webp"))
+    };
+    let webp_images: Vec<bool> = match doc.get("images").and_then(Value::as_array) {
+        Some(images) => images.iter().map(is_webp).collect(),
+        None => return,
+    };
+    let mut any = false;
+    if let Some(textures) = doc.get_mut("textures").and_then(Value::as_array_mut) {
+        for t in textures.iter_mut().filter_map(Value::as_object_mut) {
+            let Some(src) = t.get("source").and_then(Value::as_u64) else { continue };
+            if !webp_images.get(src as usize).copied().unwrap_or(false) {
+                continue;
+            }
+            t.remove("source");
+            let exts = t.entry("extensions").or_insert_with(|| json!({}));
+            if let Some(exts) = exts.as_object_mut() {
+                exts.insert("EXT_texture_webp".into(), json!({ "source": src }));
+            }
+            any = true;
+        }
+    }
+    if any {
+        for key in ["extensionsUsed", "extensionsRequired"] {
+            let list = doc.entry(key).or_insert_with(|| json!([]));
+            if let Some(list) = list.as_array_mut()
+                && !list.iter().any(|e| e.as_str() == Some("EXT_texture_webp"))
+            {
+                list.push(json!("EXT_texture_webp"));
+            }
+        }
+    }
+}
+
 /// Writes the document and its buffer: `<stem>.bin` beside a `.gltf`, or one `.glb`.
 /// `protect` adds paths that must not be overwritten (the original buffers).
 pub(super) fn emit(
@@ -238,6 +279,7 @@ pub(super) fn emit(
     if !has_bin {
         obj.remove("buffers");
     }
+    webp_textures(obj);
     if binary {
         if has_bin {
             obj.insert("buffers".into(), json!([{ "byteLength": bin.len() }]));

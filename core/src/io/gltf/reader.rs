@@ -14,6 +14,7 @@ use crate::index::{MaterialId, NormalId, SheetId, UvId, VertexId};
 use crate::io::IoError;
 use crate::model::{Face, ImageSource, Material, Model, Origin, Sheet};
 use crate::texture::coords::flip_v;
+use crate::warnings::{Warning, WarningCode};
 
 /// The affine map applied to glTF UVs of one material's base-colour texture
 /// (`KHR_texture_transform`), and the texture-coordinate set it reads.
@@ -103,9 +104,8 @@ struct Block {
 }
 
 pub(super) fn read(path: &Path) -> Result<Model, IoError> {
-    let doc = source::open_document(path)?;
-    let json = &doc.json;
-    let version = json.get("asset").and_then(|a| a.get("version")).and_then(Value::as_str);
+    let mut doc = source::open_document(path)?;
+    let version = doc.json.get("asset").and_then(|a| a.get("version")).and_then(Value::as_str);
     match version {
         Some(v) if v.starts_with("2.") => {}
         Some(v) => {
@@ -116,8 +116,9 @@ pub(super) fn read(path: &Path) -> Result<Model, IoError> {
         }
         None => return Err(IoError::invalid(path, "missing asset.version")),
     }
-    source::check_compression(path, json)?;
-    let buffers = source::load_buffers(path, &doc.json, &doc)?;
+    // Draco primitives are decoded here; the document then reads as a plain glTF.
+    let (buffers, draco) = super::draco::load(path, &mut doc)?;
+    let json = &doc.json;
     let used = |name: &str| {
         json.get("extensionsUsed")
             .and_then(Value::as_array)
@@ -131,14 +132,22 @@ pub(super) fn read(path: &Path) -> Result<Model, IoError> {
         model: Model { path: path.to_path_buf(), ..Model::default() },
         spans: Vec::new(),
     };
+    if draco > 0 {
+        r.model.notes.push(format!(
+            "{draco} Draco-compressed primitive(s) decoded; a written glTF stores them uncompressed"
+        ));
+    }
     let transforms = r.materials()?;
     r.meshes(&transforms)?;
     let nodes = read_nodes(path, json)?;
     if let Some(req) = json.get("extensionsRequired").and_then(Value::as_array) {
         for e in req.iter().filter_map(Value::as_str) {
             if !super::refs::is_known_extension(e) {
-                r.model.notes.push(format!(
-                    "required extension {e} is not understood; it was ignored while reading"
+                r.model.warnings.push(Warning::new(
+                    WarningCode::UnsupportedExtension,
+                    format!(
+                        "required extension {e} is not understood; it was ignored while reading"
+                    ),
                 ));
             }
         }
@@ -205,8 +214,8 @@ impl<'a> Reader<'a> {
         Ok(transforms)
     }
 
-    /// The image of texture `t`, refusing textures whose only image is in a format scanatlas
-    /// cannot decode (WebP, Basis Universal, ...).
+    /// The image of texture `t` (its `source`, else its `EXT_texture_webp` source), refusing
+    /// textures whose only image is in a format scanatlas cannot decode (Basis Universal, ...).
     fn texture_image(&mut self, t: usize, material: usize) -> Result<Option<usize>, IoError> {
         let tex = item(self.json, "textures", t)
             .map_err(|m| self.invalid(format!("materials[{material}]: {m}")))?;
@@ -216,6 +225,15 @@ impl<'a> Reader<'a> {
             return Ok(Some(s));
         }
         if let Some(exts) = tex.get("extensions").and_then(Value::as_object) {
+            // WebP images are decoded like PNG and JPEG ones.
+            if let Some(e) = exts.get("EXT_texture_webp") {
+                let xctx = format!("{ctx}.extensions.EXT_texture_webp");
+                let s = opt_usize(e, "source", &xctx)
+                    .map_err(|m| self.invalid(m))?
+                    .ok_or_else(|| self.invalid(format!("{xctx}: missing source")))?;
+                item(self.json, "images", s).map_err(|m| self.invalid(format!("{xctx}: {m}")))?;
+                return Ok(Some(s));
+            }
             for (name, e) in exts {
                 if e.get("source").is_some() {
                     return Err(IoError::unsupported(
@@ -228,8 +246,9 @@ impl<'a> Reader<'a> {
                 }
             }
         }
-        self.model.notes.push(format!(
-            "{ctx} has no image source; material {material} is treated as untextured"
+        self.model.warnings.push(Warning::new(
+            WarningCode::MissingTexture,
+            format!("{ctx} has no image source; material {material} is treated as untextured"),
         ));
         Ok(None)
     }
@@ -298,9 +317,10 @@ impl<'a> Reader<'a> {
                     .and_then(Value::as_object)
                     .ok_or_else(|| self.invalid(format!("{ctx}: missing attributes")))?;
                 if !attrs.contains_key("POSITION") {
-                    self.model
-                        .notes
-                        .push(format!("{ctx} has no POSITION attribute and was skipped"));
+                    self.model.warnings.push(Warning::new(
+                        WarningCode::ContentSkipped,
+                        format!("{ctx} has no POSITION attribute and was skipped"),
+                    ));
                     continue;
                 }
                 let material = opt_usize(prim, "material", &ctx).map_err(|e| self.invalid(e))?;
@@ -349,7 +369,10 @@ impl<'a> Reader<'a> {
             }
         }
         if skipped > 0 {
-            self.model.notes.push(format!("{skipped} point or line primitive(s) skipped"));
+            self.model.warnings.push(Warning::new(
+                WarningCode::ContentSkipped,
+                format!("{skipped} point or line primitive(s) skipped"),
+            ));
         }
         Ok(())
     }
@@ -523,8 +546,11 @@ impl<'a> Reader<'a> {
                 });
             })?;
         if leftover > 0 {
-            self.model.notes.push(format!(
-                "{ctx}: {leftover} trailing index(es) that do not form a triangle were ignored"
+            self.model.warnings.push(Warning::new(
+                WarningCode::PartialTriangle,
+                format!(
+                    "{ctx}: {leftover} trailing index(es) that do not form a triangle were ignored"
+                ),
             ));
         }
         Ok(())

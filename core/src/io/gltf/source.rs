@@ -2,7 +2,6 @@
 //! checked against the file size), the unsupported-compression checks, and the buffers
 //! (memory-mapped external files, `data:` URIs or the GLB BIN chunk).
 
-use std::fs::File;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -34,6 +33,12 @@ pub(super) struct BufferData {
 }
 
 impl BufferData {
+    /// A buffer made in memory (decoded Draco geometry).
+    pub(super) fn owned(bytes: Vec<u8>) -> Self {
+        let range = 0..bytes.len();
+        Self { backing: Backing::Owned(bytes), range, file: None }
+    }
+
     pub(super) fn bytes(&self) -> &[u8] {
         match &self.backing {
             Backing::Map(m) => &m[self.range.clone()],
@@ -52,7 +57,7 @@ pub(super) struct Document {
 /// Maps a whole file read-only. Empty files are returned as an empty owned buffer because
 /// mapping zero bytes is an error on some systems.
 fn map_file(path: &Path) -> Result<Backing, std::io::Error> {
-    let file = File::open(path)?;
+    let file = crate::io::paths::open_regular(path)?;
     let len = file.metadata()?.len();
     if len == 0 {
         return Ok(Backing::Owned(Vec::new()));
@@ -161,21 +166,21 @@ fn parse_glb(path: &Path, b: &[u8]) -> Result<(Range<usize>, Option<Range<usize>
 }
 
 /// Extensions whose data scanatlas cannot decode.
-const COMPRESSION_EXTENSIONS: [&str; 3] =
-    ["KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_meshopt_compression"];
+/// (`KHR_draco_mesh_compression` is decoded, see `draco`.)
+const COMPRESSION_EXTENSIONS: [&str; 2] = ["EXT_meshopt_compression", "KHR_meshopt_compression"];
 
 fn compression_error(path: &Path, ext: &str, place: &str) -> IoError {
     IoError::unsupported(
         path,
         format!(
             "{ext} ({place}): compressed geometry cannot be read; decompress the file first, \
-             e.g. `gltf-transform cp IN OUT` (which decodes Draco and meshopt) or re-export \
+             e.g. `gltf-transform cp IN OUT` (which decodes meshopt) or re-export \
              without compression"
         ),
     )
 }
 
-/// Refuses Draco and meshopt compression wherever it may appear, before any buffer is read.
+/// Refuses meshopt compression wherever it may appear, before any buffer is read.
 pub(super) fn check_compression(path: &Path, json: &Value) -> Result<(), IoError> {
     for key in ["extensionsRequired", "extensionsUsed"] {
         if let Some(list) = json.get(key).and_then(Value::as_array) {
@@ -284,6 +289,7 @@ pub(super) fn load_buffers(
                     let rel = uri::percent_decode(u)
                         .map_err(|m| IoError::invalid(path, format!("buffer {i}: {m}")))?;
                     let file = dir.join(&rel);
+                    crate::io::check_confined(path, &dir, &file)?;
                     let backing = map_file(&file).map_err(|e| {
                         IoError::invalid(
                             path,

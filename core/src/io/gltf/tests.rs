@@ -315,7 +315,7 @@ fn non_indexed_strip_and_fan() {
         ]
     );
     assert_eq!(m.positions.len(), 5);
-    assert!(m.notes.iter().any(|n| n.contains("2 trailing index")), "{:?}", m.notes);
+    assert!(m.warnings.iter().any(|n| n.message.contains("2 trailing index")), "{:?}", m.warnings);
     assert!(m.faces.iter().all(|f| f.uv.is_none()));
     assert_eq!(m.uvs.len(), m.positions.len(), "placeholder UVs keep ids equal");
 }
@@ -353,7 +353,7 @@ fn missing_texcoord_gives_faces_without_uv_and_lines_are_skipped() {
     assert_eq!(m.faces.len(), 3);
     assert_eq!(m.faces[2].uv, None);
     assert_eq!(m.uvs.len(), 7);
-    assert!(m.notes.iter().any(|n| n.contains("1 point or line")), "{:?}", m.notes);
+    assert!(m.warnings.iter().any(|n| n.message.contains("1 point or line")), "{:?}", m.warnings);
 }
 
 // ---------- bad input ----------
@@ -464,18 +464,23 @@ fn glb_structure_errors() {
 #[test]
 fn compression_and_sparse_are_refused_clearly() {
     let mut fx = quad();
-    fx.doc["extensionsRequired"] = json!(["KHR_draco_mesh_compression"]);
+    fx.doc["extensionsRequired"] = json!(["EXT_meshopt_compression"]);
     let e = read_err(&mut fx);
     assert!(
         e.contains("unsupported")
-            && e.contains("KHR_draco_mesh_compression")
+            && e.contains("EXT_meshopt_compression")
             && e.contains("gltf-transform"),
         "{e}"
     );
     let mut fx = quad();
-    fx.doc["meshes"][0]["primitives"][0]["extensions"] =
-        json!({"KHR_draco_mesh_compression": {"bufferView": 0}});
+    fx.doc["meshes"][0]["primitives"][0]["extensions"] = json!({"KHR_meshopt_compression": {}});
     assert!(read_err(&mut fx).contains("on primitive 0 of mesh 0"));
+    // Draco is decoded: a stream that is not Draco is a clear error.
+    let mut fx = quad();
+    fx.doc["meshes"][0]["primitives"][0]["extensions"] =
+        json!({"KHR_draco_mesh_compression": {"bufferView": 0, "attributes": {"POSITION": 0}}});
+    let e = read_err(&mut fx);
+    assert!(e.contains("KHR_draco_mesh_compression") && e.contains("cannot be decoded"), "{e}");
     let mut fx = quad();
     fx.doc["bufferViews"][1]["extensions"] = json!({"EXT_meshopt_compression": {}});
     assert!(read_err(&mut fx).contains("EXT_meshopt_compression (on bufferView 1)"));
@@ -483,9 +488,9 @@ fn compression_and_sparse_are_refused_clearly() {
     fx.doc["accessors"][0]["sparse"] = json!({"count": 1});
     assert!(read_err(&mut fx).contains("sparse accessor"));
     let mut fx = quad();
-    fx.doc["textures"] = json!([{"extensions": {"EXT_texture_webp": {"source": 0}}}]);
+    fx.doc["textures"] = json!([{"extensions": {"KHR_texture_basisu": {"source": 0}}}]);
     let e = read_err(&mut fx);
-    assert!(e.contains("only a EXT_texture_webp image"), "{e}");
+    assert!(e.contains("only a KHR_texture_basisu image"), "{e}");
 }
 
 // ---------- writing ----------

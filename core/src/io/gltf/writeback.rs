@@ -98,7 +98,7 @@ pub(super) fn write_back(
     }
 
     let doc_src = source::open_document(src)?;
-    let sources = source::load_buffers(src, orig, &doc_src)?;
+    let sources = super::draco::reload(src, orig, &doc_src)?;
     let Some(Plan { mut blocks, spans, span_block }) = plan(model, scene, &sources, path)? else {
         return Ok(false);
     };

@@ -9,6 +9,7 @@ use super::lex::{for_each_line, is_blank, rest_text, split_keyword, trim};
 use crate::index::{MaterialId, SheetId};
 use crate::io::IoError;
 use crate::model::{ImageSource, Material, Sheet};
+use crate::warnings::{Warning, WarningCode};
 
 /// Materials and sheets gathered from every library of one OBJ file.
 #[derive(Default)]
@@ -21,7 +22,9 @@ pub(super) struct MaterialTable {
     loaded: Vec<PathBuf>,
     /// `(material name, options)` of `map_Kd` statements that carried options.
     pub map_kd_options: Vec<(String, String)>,
-    pub notes: Vec<String>,
+    pub warnings: Vec<Warning>,
+    /// Materials that `usemtl` named but no library defines (created untextured).
+    pub undefined: Vec<MaterialId>,
 }
 
 impl MaterialTable {
@@ -44,7 +47,11 @@ impl MaterialTable {
             return id;
         }
         let id = MaterialId::from_usize(self.materials.len());
-        self.notes.push(format!("usemtl names material '{name}' that no material library defines"));
+        self.warnings.push(Warning::new(
+            WarningCode::UndefinedMaterial,
+            format!("usemtl names material '{name}' that no material library defines"),
+        ));
+        self.undefined.push(id);
         self.materials.push(Material { name: name.to_string(), sheet: None, extra: Vec::new() });
         self.by_name.insert(name.to_string(), id);
         id
@@ -57,7 +64,8 @@ impl MaterialTable {
             return Ok(());
         }
         self.loaded.push(mtl_path.to_path_buf());
-        let bytes = std::fs::read(mtl_path).map_err(|e| IoError::file(mtl_path, e))?;
+        let bytes =
+            crate::io::paths::read_regular(mtl_path).map_err(|e| IoError::file(mtl_path, e))?;
         let dir = parent_dir(mtl_path);
         // The material being read: (name, extra lines, resolved map_Kd, map_Kd options).
         let mut current: Option<(String, Vec<String>, Option<PathBuf>, String)> = None;
@@ -87,23 +95,28 @@ impl MaterialTable {
                 }
                 let path = resolve_texture(&dir, &file);
                 if !path.exists() {
-                    self.notes.push(format!(
-                        "texture {} of material '{}' not found",
-                        path.display(),
-                        cur.0
+                    self.warnings.push(Warning::new(
+                        WarningCode::MissingTexture,
+                        format!("texture {} of material '{}' not found", path.display(), cur.0),
                     ));
                 }
                 if has_uv_transform(&opts) {
-                    self.notes.push(format!(
-                        "map_Kd of material '{}' has UV transform options '{opts}' that scanatlas \
-                         does not apply",
-                        cur.0
+                    self.warnings.push(Warning::new(
+                        WarningCode::TextureOptionsIgnored,
+                        format!(
+                            "map_Kd of material '{}' has UV transform options '{opts}' that \
+                             scanatlas does not apply",
+                            cur.0
+                        ),
                     ));
                 }
                 if cur.2.is_some() {
-                    self.notes.push(format!(
-                        "material '{}' has several map_Kd statements; the last one is used",
-                        cur.0
+                    self.warnings.push(Warning::new(
+                        WarningCode::TextureOptionsIgnored,
+                        format!(
+                            "material '{}' has several map_Kd statements; the last one is used",
+                            cur.0
+                        ),
                     ));
                 }
                 cur.2 = Some(path);
@@ -133,7 +146,10 @@ impl MaterialTable {
     fn finish(&mut self, block: Option<(String, Vec<String>, Option<PathBuf>, String)>) {
         let Some((name, extra, map, opts)) = block else { return };
         if self.by_name.contains_key(&name) {
-            self.notes.push(format!("material '{name}' is defined twice; the first one is kept"));
+            self.warnings.push(Warning::new(
+                WarningCode::DuplicateMaterial,
+                format!("material '{name}' is defined twice; the first one is kept"),
+            ));
             return;
         }
         let sheet = map.map(|p| self.sheet_for(p));

@@ -10,7 +10,6 @@
 //! error in file order is the one reported.
 
 use std::convert::Infallible;
-use std::fs::File;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
@@ -24,7 +23,9 @@ use super::mtl::{MaterialTable, parent_dir, resolve_texture};
 use super::{GroupKind, GroupMarker, ObjExtras};
 use crate::index::{FaceId, MaterialId, NormalId, UvId, VertexId};
 use crate::io::IoError;
+use crate::io::triangulate::{Polygon, retriangulate};
 use crate::model::{Face, Model, Origin};
+use crate::warnings::{Warning, WarningCode};
 
 /// Most elements of one kind a model may hold: indices are `u32`.
 const MAX_ELEMENTS: u64 = u32::MAX as u64;
@@ -41,7 +42,7 @@ pub fn read(path: &Path) -> Result<Model, IoError> {
 /// [`read`] with a smaller element limit and a forced chunk size, so tests can reach the
 /// "too many elements" error and exercise chunk boundaries on small files.
 pub(super) fn read_with(path: &Path, limit: u64, chunk: Option<usize>) -> Result<Model, IoError> {
-    let file = File::open(path).map_err(|e| IoError::file(path, e))?;
+    let file = crate::io::paths::open_regular(path).map_err(|e| IoError::file(path, e))?;
     let len = file.metadata().map_err(|e| IoError::file(path, e))?.len();
     if len == 0 {
         return parse(path, &[], limit, chunk);
@@ -224,6 +225,7 @@ fn load_mtllib(
         }
     };
     for f in &files {
+        crate::io::check_confined(obj, &dir, f)?;
         table.load(f)?;
     }
     Ok(files)
@@ -254,10 +256,12 @@ fn internal(no: u64) -> LineError {
     (no, "internal error: statement counts of the two passes differ".to_string())
 }
 
-/// Pass 2 over one chunk.
-fn parse_chunk(job: Job<'_>) -> Result<(), LineError> {
+/// Pass 2 over one chunk. Returns the chunk's polygons (more than 3 corners), fan-triangulated
+/// for now: the positions they need may lie in other chunks (see `triangulate`).
+fn parse_chunk(job: Job<'_>) -> Result<Vec<Polygon>, LineError> {
     let Job { bytes, first_line, base, total, positions, uvs, normals, faces, .. } = job;
     let (mut iv, mut ivt, mut ivn, mut itri) = (0usize, 0usize, 0usize, 0usize);
+    let mut polygons = Vec::new();
     let mut material = job.material;
     let mut switch = 0usize;
     for_each_line(bytes, first_line, |line, no| {
@@ -289,6 +293,10 @@ fn parse_chunk(job: Job<'_>) -> Result<(), LineError> {
                 let so_far = [base.v + iv as u64, base.vt + ivt as u64, base.vn + ivn as u64];
                 let out = faces.get_mut(itri..).ok_or_else(|| internal(no))?;
                 let n = parse_face(rest, so_far, &total, out, material).map_err(|m| (no, m))?;
+                if n > 1 {
+                    let first_face = (base.tris as usize) + itri;
+                    polygons.push(Polygon { first_face, corners: n as u32 + 2 });
+                }
                 itri += n;
             }
             _ => {}
@@ -298,7 +306,7 @@ fn parse_chunk(job: Job<'_>) -> Result<(), LineError> {
     if iv != positions.len() || ivt != uvs.len() || ivn != normals.len() || itri != faces.len() {
         return Err(internal(first_line));
     }
-    Ok(())
+    Ok(polygons)
 }
 
 /// Reads `N` numbers of a `kw` statement in place; `min` of them are required, the others
@@ -556,6 +564,7 @@ fn parse(path: &Path, bytes: &[u8], limit: u64, chunk: Option<usize>) -> Result<
     let mut uvs = vec![[0.0f64; 2]; total.vt as usize];
     let mut normals = vec![[0.0f32; 3]; total.vn as usize];
     let mut faces = vec![empty_face; total.tris as usize];
+    let mut polygon_list = Vec::new();
     {
         let (mut p, mut t, mut n, mut f) =
             (&mut positions[..], &mut uvs[..], &mut normals[..], &mut faces[..]);
@@ -580,11 +589,14 @@ fn parse(path: &Path, bytes: &[u8], limit: u64, chunk: Option<usize>) -> Result<
                 switches: std::mem::take(&mut switches[i]),
             });
         }
-        let results: Vec<Result<(), LineError>> = jobs.into_par_iter().map(parse_chunk).collect();
+        let results: Vec<Result<Vec<Polygon>, LineError>> =
+            jobs.into_par_iter().map(parse_chunk).collect();
         for r in results {
-            r.map_err(|(line, msg)| IoError::line(path, line, msg))?;
+            let found = r.map_err(|(line, msg)| IoError::line(path, line, msg))?;
+            polygon_list.extend(found);
         }
     }
+    let clipped = retriangulate(&positions, &mut faces, &polygon_list);
     if faces.is_empty() {
         return Err(IoError::line(path, last_line, "no faces"));
     }
@@ -592,17 +604,26 @@ fn parse(path: &Path, bytes: &[u8], limit: u64, chunk: Option<usize>) -> Result<
     let mut notes = Vec::new();
     if polygons > 0 {
         notes.push(format!(
-            "{polygons} polygons with more than 3 vertices fan-triangulated into {polygon_tris} \
-             triangles"
+            "{polygons} polygons with more than 3 vertices triangulated into {polygon_tris} \
+             triangles ({clipped} non-convex ones by ear clipping in their plane)"
         ));
     }
+    let mut warnings = std::mem::take(&mut table.warnings);
     if lines_points > 0 {
-        notes.push(format!("{lines_points} line/point statements (l, p) skipped"));
+        warnings.push(Warning::new(
+            WarningCode::ContentSkipped,
+            format!("{lines_points} line/point statements (l, p) skipped"),
+        ));
     }
     if other > 0 {
-        notes.push(format!("{other} unsupported statements skipped"));
+        warnings.push(Warning::new(
+            WarningCode::ContentSkipped,
+            format!("{other} unsupported statements skipped"),
+        ));
     }
-    notes.append(&mut table.notes);
+    if let Some(w) = assume_lone_texture(&mut faces, &table) {
+        warnings.push(w);
+    }
 
     Ok(Model {
         path: path.to_path_buf(),
@@ -614,5 +635,41 @@ fn parse(path: &Path, bytes: &[u8], limit: u64, chunk: Option<usize>) -> Result<
         sheets: table.sheets,
         origin: Origin::Obj(extras),
         notes,
+        warnings,
+    })
+}
+
+/// Gives the faces that have UVs but no material, or a material no library defines (a
+/// `usemtl` line removed or a material renamed), the model's only textured material, when it has
+/// exactly one: their UVs can only index that texture, and leaving them untextured would drop
+/// them all in `defrag`. Returns the warning saying so. With several textured materials nothing
+/// is guessed; `io::read_model` then warns that the faces' UVs index no texture.
+fn assume_lone_texture(faces: &mut [Face], table: &MaterialTable) -> Option<Warning> {
+    let mut textured = table.materials.iter().enumerate().filter(|(_, m)| m.sheet.is_some());
+    let (lone, material) = textured.next()?;
+    if textured.next().is_some() {
+        return None;
+    }
+    let lone = MaterialId::from_usize(lone);
+    let mut undefined = vec![false; table.materials.len()];
+    for m in &table.undefined {
+        undefined[m.idx()] = true;
+    }
+    let mut assigned = 0u64;
+    for face in faces.iter_mut().filter(|f| f.uv.is_some()) {
+        if face.material.is_none_or(|m| undefined[m.idx()]) {
+            face.material = Some(lone);
+            assigned += 1;
+        }
+    }
+    (assigned > 0).then(|| {
+        Warning::new(
+            WarningCode::MaterialAssumed,
+            format!(
+                "{assigned} faces with texture coordinates have no material or an undefined one; \
+                 they were given the only textured material, '{}'",
+                material.name
+            ),
+        )
     })
 }

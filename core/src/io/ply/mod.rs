@@ -5,8 +5,8 @@
 //! Reading: any elements in any order (unknown ones and unknown properties are skipped by their
 //! declared types), every scalar type name and alias, per-vertex positions (any numeric type, to
 //! f64), normals and UVs (`s,t`, `u,v`, `texture_u,texture_v`, `texture_s,texture_t`), faces by
-//! `vertex_indices` or `vertex_index`, polygons fan-triangulated in place. Per-face texcoords win
-//! over per-vertex UVs. See [`read`] for the UV layout and the error policy.
+//! `vertex_indices` or `vertex_index`, polygons triangulated in place (see `io::triangulate`).
+//! Per-face texcoords win over per-vertex UVs. See [`read`] for the UV layout and the error policy.
 //!
 //! Writing: binary little endian by default (ascii on request), positions as `double` so
 //! georeferenced coordinates survive exactly, MeshLab-compatible texture properties.
@@ -61,7 +61,7 @@ pub struct PlyExtras {
 /// (ascii) or byte offset (binary). A header declaring more elements than the file could hold
 /// fails before any allocation.
 pub fn read(path: &Path) -> Result<Model, IoError> {
-    let file = std::fs::File::open(path).map_err(|e| IoError::file(path, e))?;
+    let file = crate::io::paths::open_regular(path).map_err(|e| IoError::file(path, e))?;
     let len = file.metadata().map_err(|e| IoError::file(path, e))?.len();
     if len == 0 {
         return Err(IoError::invalid(path, "empty file"));

@@ -15,7 +15,9 @@ use super::source::{Fail, Source};
 use super::{PlyExtras, PlyFormat};
 use crate::index::{MaterialId, NormalId, UvId, VertexId};
 use crate::io::IoError;
+use crate::io::triangulate::{Polygon, retriangulate};
 use crate::model::{Face, ImageSource, Material, Model, Origin, Sheet};
+use crate::warnings::{Warning, WarningCode};
 
 /// Per-vertex UV property name pairs, in order of preference.
 const UV_NAMES: [(&str, &str); 4] =
@@ -76,7 +78,10 @@ struct Reader<'p> {
     per_face_uv: bool,
     model: Model,
     notes: Vec<String>,
+    warnings: Vec<Warning>,
     skipped: Vec<String>,
+    /// Faces with more than 3 corners, fan-triangulated until the positions are all read.
+    polygons: Vec<Polygon>,
 }
 
 /// Builds the "element `face` #12" prefix of messages.
@@ -100,7 +105,9 @@ impl<'p> Reader<'p> {
             per_face_uv: false,
             model: Model { path: path.to_path_buf(), ..Model::default() },
             notes: Vec::new(),
+            warnings: Vec::new(),
             skipped: Vec::new(),
+            polygons: Vec::new(),
         };
         let (Some(vi), Some(fi)) = (vertex, face) else {
             return Err(IoError::invalid(
@@ -155,9 +162,10 @@ impl<'p> Reader<'p> {
         let mut uvs = false;
         if let Some((pu, pv)) = uv {
             if self.per_face_uv {
-                self.notes.push(
-                    "per-vertex UVs ignored: per-face `texcoord` lists take precedence".into(),
-                );
+                self.warnings.push(Warning::new(
+                    WarningCode::ContentSkipped,
+                    "per-vertex UVs ignored: per-face `texcoord` lists take precedence",
+                ));
             } else {
                 slots[pu] = U;
                 slots[pv] = U + 1;
@@ -250,7 +258,10 @@ impl<'p> Reader<'p> {
         }
         let trailing = src.trailing();
         if trailing > 0 {
-            self.notes.push(format!("{trailing} bytes after the last element ignored"));
+            self.warnings.push(Warning::new(
+                WarningCode::ContentSkipped,
+                format!("{trailing} bytes after the last element ignored"),
+            ));
         }
         self.finish()
     }
@@ -501,6 +512,8 @@ impl<'p> Reader<'p> {
             if n > 3 {
                 polygons += 1;
                 extra_tris += (n - 3) as u64;
+                let first_face = self.model.faces.len();
+                self.polygons.push(Polygon { first_face, corners: n as u32 });
             }
             for k in 1..n - 1 {
                 let corners = [0, k, k + 1];
@@ -525,29 +538,42 @@ impl<'p> Reader<'p> {
         self.froles = roles;
         if polygons > 0 {
             self.notes.push(format!(
-                "{polygons} polygons fan-triangulated in place ({extra_tris} extra triangles)"
+                "{polygons} polygons triangulated in place ({extra_tris} extra triangles)"
             ));
         }
         if multi_default {
-            self.notes.push(format!(
-                "no texnumber property but {nsheets} TextureFile comments: faces use the first"
+            self.warnings.push(Warning::new(
+                WarningCode::TextureAssignment,
+                format!(
+                    "no texnumber property but {nsheets} TextureFile comments: faces use the first"
+                ),
             ));
         }
         if nsheets == 0 && has_texnumber {
-            self.notes.push("texnumber ignored: no TextureFile comments".into());
+            self.warnings.push(Warning::new(
+                WarningCode::TextureAssignment,
+                "texnumber ignored: no TextureFile comments",
+            ));
         }
         Ok(())
     }
 
     fn finish(mut self) -> Result<Model, IoError> {
+        self.model.validate_indices().map_err(|m| IoError::invalid(self.path, m))?;
+        let clipped = retriangulate(&self.model.positions, &mut self.model.faces, &self.polygons);
+        if clipped > 0 {
+            self.notes.push(format!(
+                "{clipped} non-convex polygons triangulated by ear clipping in their plane"
+            ));
+        }
         self.model.notes = self.notes;
+        self.model.warnings = self.warnings;
         self.model.origin = Origin::Ply(PlyExtras {
             format: self.header.format,
             comments: self.header.comments,
             obj_info: self.header.obj_info,
             skipped: self.skipped,
         });
-        self.model.validate_indices().map_err(|m| IoError::invalid(self.path, m))?;
         Ok(self.model)
     }
 }

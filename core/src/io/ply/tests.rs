@@ -129,7 +129,7 @@ fn ascii_with_polygon_unknown_elements_normals_and_vertex_st() {
         assert_eq!(f.n.map(|n| n.map(|x| x.0)), Some(f.v.map(|x| x.0)));
         assert_eq!(f.material, None);
     }
-    assert!(m.notes.iter().any(|n| n.contains("1 polygons fan-triangulated")), "{:?}", m.notes);
+    assert!(m.notes.iter().any(|n| n.contains("1 polygons triangulated")), "{:?}", m.notes);
     let Origin::Ply(x) = &m.origin else { panic!("no PLY origin") };
     assert_eq!(x.format, PlyFormat::Ascii);
     assert_eq!(x.comments, vec!["made by hand".to_string()]);
@@ -205,7 +205,7 @@ fn binary_le_and_be_read_the_same() {
         assert_eq!(m.faces[1].material, None, "texnumber -1 means untextured");
         assert_eq!(m.materials[0].name, "tex");
         assert_eq!(m.sheets[0].image, ImageSource::File(dir.path().join("tex.png")));
-        assert!(m.notes.iter().any(|n| n.contains("per-vertex UVs ignored")));
+        assert!(m.warnings.iter().any(|n| n.message.contains("per-vertex UVs ignored")));
     }
     assert_eq!(le.positions, be.positions);
     let Origin::Ply(x) = &be.origin else { panic!() };

@@ -334,26 +334,6 @@ struct StoreRows<'a> {
     raw: RefCell<Vec<u8>>,
 }
 
-impl StoreRows<'_> {
-    /// Sample `i` of pixel data `px` as 8 bits.
-    #[inline]
-    fn sample8(px: &[u8], sample: SampleType, i: usize) -> u8 {
-        match sample {
-            SampleType::U8 => px[i],
-            SampleType::U16 => {
-                let v = u16::from_ne_bytes([px[2 * i], px[2 * i + 1]]) as u32;
-                ((v * 255 + 32767) / 65535) as u8
-            }
-            SampleType::F32 => {
-                let b = [px[4 * i], px[4 * i + 1], px[4 * i + 2], px[4 * i + 3]];
-                let v = f32::from_ne_bytes(b);
-                // NaN maps to 0 through the saturating cast.
-                (v.clamp(0.0, 1.0) * 255.0).round() as u8
-            }
-        }
-    }
-}
-
 impl jpeg_encoder::ImageBuffer for StoreRows<'_> {
     fn get_jpeg_color_type(&self) -> jpeg_encoder::JpegColorType {
         if self.gray {
@@ -381,11 +361,11 @@ impl jpeg_encoder::ImageBuffer for StoreRows<'_> {
         }
         for px in raw.chunks_exact(bpp) {
             if self.gray {
-                buffers[0].push(Self::sample8(px, format.sample, 0));
+                buffers[0].push(super::sample8(px, format.sample, 0));
             } else {
-                let r = Self::sample8(px, format.sample, 0);
-                let g = Self::sample8(px, format.sample, 1);
-                let b = Self::sample8(px, format.sample, 2);
+                let r = super::sample8(px, format.sample, 0);
+                let g = super::sample8(px, format.sample, 1);
+                let b = super::sample8(px, format.sample, 2);
                 let (yy, cb, cr) = jpeg_encoder::rgb_to_ycbcr(r, g, b);
                 buffers[0].push(yy);
                 buffers[1].push(cb);
@@ -396,7 +376,7 @@ impl jpeg_encoder::ImageBuffer for StoreRows<'_> {
 }
 
 /// The most MCU rows of one strip of a parallel encode (see [`encode`]): 512 rows of a 4:4:4
-/// image, so that venus's 3313-row output sheet splits into seven strips.
+/// image, so that a 4096-row sheet splits into eight strips that two cores share evenly.
 const MAX_STRIP_MCU_ROWS: u32 = 64;
 
 /// Strips encoded side by side and held (compressed) before they are written, so that memory
@@ -406,7 +386,7 @@ const STRIPS_PER_BATCH: usize = 8;
 /// Writes `store` as a baseline JPEG of `quality` (1..=100) to `w`.
 ///
 /// `jpeg-encoder` is single-threaded, and the sheet encode was the last single-threaded step of
-/// a defrag run (venus: 0.32 s for 13.5 MP with the second core idle). The image is cut into strips
+/// a defrag run, with the second core idle. The image is cut into strips
 /// of whole MCU rows, each encoded on its own (in parallel, in batches), and the strips' scans
 /// are joined with restart markers (the restart interval is one strip): a restart resets the DC
 /// predictions exactly as a fresh encoder starts, so the file decodes to the same pixels as a

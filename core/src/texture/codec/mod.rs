@@ -1,4 +1,4 @@
-//! Per-format image codecs (PNG, JPEG, TIFF, OpenEXR) behind `decode` and `encode`, and what they
+//! Per-format image codecs (PNG, JPEG, TIFF, OpenEXR, WebP) behind `decode` and `encode`, and what they
 //! share: opening an `ImageSource` as a seekable buffered reader, recognising formats we do not
 //! handle, refusing headers that claim more pixels than the file could hold, and turning a panic
 //! inside a third-party decoder into an error.
@@ -7,11 +7,12 @@ pub(super) mod exr;
 pub(super) mod jpeg;
 pub(super) mod png;
 pub(super) mod tiff;
+pub(super) mod webp;
 
 use std::fs::File;
 use std::io::{self, BufRead, BufReader, Cursor, Read, Seek, SeekFrom};
 
-use super::{TextureError, TileStore};
+use super::{SampleType, TextureError, TileStore};
 use crate::model::ImageSource;
 
 /// Capacity of the buffered file reader: big enough that decoders issue few system calls, small
@@ -74,7 +75,7 @@ pub(super) fn open(src: &ImageSource) -> Result<Opened<'_>, TextureError> {
     match src {
         ImageSource::File(path) => {
             let file_err = |e| TextureError::File { path: path.clone(), source: e };
-            let file = File::open(path).map_err(file_err)?;
+            let file = crate::io::paths::open_regular(path).map_err(file_err)?;
             let len = file.metadata().map_err(file_err)?.len();
             let mut input = BufReader::with_capacity(READ_BUFFER, file);
             let head = input.fill_buf().map_err(file_err)?;
@@ -106,9 +107,6 @@ pub(super) fn other_kind(head: &[u8]) -> Option<&'static str> {
     ];
     if let Some((_, kind)) = kinds.iter().find(|(magic, _)| head.starts_with(magic)) {
         return Some(kind);
-    }
-    if head.len() >= 12 && &head[..4] == b"RIFF" && &head[8..12] == b"WEBP" {
-        return Some("WebP");
     }
     if head.len() >= 12 && &head[4..8] == b"ftyp" {
         return Some(match &head[8..12] {
@@ -207,6 +205,25 @@ pub(super) fn blit(
     for r in 0..rows {
         let o = r as usize * src_stride;
         store.write_row(y0 + r, x0, &src[o..o + n]);
+    }
+}
+
+/// Sample `i` of pixel data `px` as 8 bits: 16-bit samples rounded, float samples clamped to
+/// 0..1 and scaled (no tone mapping), for the 8-bit-only formats (JPEG, WebP).
+#[inline]
+pub(super) fn sample8(px: &[u8], sample: SampleType, i: usize) -> u8 {
+    match sample {
+        SampleType::U8 => px[i],
+        SampleType::U16 => {
+            let v = u16::from_ne_bytes([px[2 * i], px[2 * i + 1]]) as u32;
+            ((v * 255 + 32767) / 65535) as u8
+        }
+        SampleType::F32 => {
+            let b = [px[4 * i], px[4 * i + 1], px[4 * i + 2], px[4 * i + 3]];
+            let v = f32::from_ne_bytes(b);
+            // NaN maps to 0 through the saturating cast.
+            (v.clamp(0.0, 1.0) * 255.0).round() as u8
+        }
     }
 }
 

@@ -1,0 +1,14 @@
+//! `scanatlas completions SHELL`: the shell completion script of the whole command line, from the
+//! same clap definition that parses it, so it never falls behind a new flag.
+
+use anyhow::Result;
+use clap::CommandFactory;
+
+use crate::cli::{Cli, CompletionsArgs};
+
+pub fn run(args: &CompletionsArgs) -> Result<()> {
+    let mut cmd = Cli::command();
+    let mut out = std::io::stdout().lock();
+    clap_complete::generate(args.shell, &mut cmd, "scanatlas", &mut out);
+    Ok(())
+}
