@@ -58,7 +58,8 @@ const JOURNAL: &str = ".scanatlas-commit";
 #[derive(Debug)]
 pub struct OutputLock {
     path: PathBuf,
-    file: File,
+    // Held open for the run: closing it releases the lock.
+    _file: File,
 }
 
 impl OutputLock {
@@ -86,7 +87,7 @@ impl OutputLock {
             }
             file.set_len(0).map_err(file_err(&path))?;
             writeln!(file, "{}", std::process::id()).map_err(file_err(&path))?;
-            return Ok(Self { path, file });
+            return Ok(Self { path, _file: file });
         }
     }
 }
@@ -96,7 +97,6 @@ impl Drop for OutputLock {
         // Unlinked before the descriptor closes (which releases the lock), so a waiting run
         // never takes a lock on a file that is about to disappear (it checks the inode).
         let _ = fs::remove_file(&self.path);
-        let _ = &self.file;
     }
 }
 

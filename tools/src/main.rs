@@ -25,7 +25,7 @@ fn main() -> ExitCode {
     if let Some(signal) = scanatlas_core::cancel::signal().filter(|&s| s > 0) {
         // The run stopped at a safe point and removed its temporary files; the shell's
         // convention for a death by signal N is 128 + N.
-        eprintln!("scanatlas: interrupted by signal {signal}; the output was left as it was");
+        eprintln!("scanatlas: interrupted by signal {signal}");
         return ExitCode::from(128 + signal as u8);
     }
     match result {

@@ -223,6 +223,15 @@ fn spawn_defrag(cwd: &Path, input: &str, output: &str, extra: &[&str]) -> Child 
     bin().args(&args).current_dir(cwd).stderr(Stdio::piped()).spawn().unwrap()
 }
 
+/// Waits until `path` exists (or the child has ended).
+fn wait_for(path: &Path, child: &mut Child) {
+    let t = Instant::now();
+    while !path.exists() && child.try_wait().unwrap().is_none() {
+        assert!(t.elapsed() < Duration::from_secs(60), "{} never appeared", path.display());
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
 fn signal(child: &Child, sig: &str) {
     let status = Command::new("kill").args([sig, &child.id().to_string()]).status().unwrap();
     assert!(status.success(), "kill {sig} failed");
@@ -248,16 +257,20 @@ fn signals_and_kills_leave_a_whole_set_and_no_stray_file() {
     let d = dir.path();
     synth(d, "r", "20000", "1024", "obj");
     std::fs::create_dir(d.join("work")).unwrap();
-    let delays = [50u64, 200, 500, 1000, 2000];
+    let delays = [0u64, 200, 500, 1000, 2000];
     for (k, &ms) in delays.iter().enumerate() {
         let out_dir = format!("t{k}");
         let report = format!("{out_dir}.json");
         let extra = ["--work-dir", "work", "--report", report.as_str()];
         let mut child = spawn_defrag(d, "r/scan.obj", &format!("{out_dir}/o.obj"), &extra);
+        // The lock is taken after the signal handlers are installed: from then on a signal
+        // must stop the run cleanly.
+        wait_for(&d.join(&out_dir).join(".o.obj.lock"), &mut child);
         std::thread::sleep(Duration::from_millis(ms));
         let sig = if k % 2 == 0 { "-TERM" } else { "-INT" };
         signal(&child, sig);
         let status = child.wait().unwrap();
+        eprintln!("{sig} {ms} ms after the lock: {status:?}");
         let expect = if k % 2 == 0 { 143 } else { 130 };
         match status.code() {
             Some(0) => {}
@@ -302,11 +315,7 @@ fn a_second_run_on_the_same_output_fails_at_once_naming_the_first() {
     let d = dir.path();
     synth(d, "r", "20000", "1024", "obj");
     let mut first = spawn_defrag(d, "r/scan.obj", "o/o.obj", &[]);
-    let lock = d.join("o/.o.obj.lock");
-    let t = Instant::now();
-    while !lock.exists() && t.elapsed() < Duration::from_secs(30) {
-        std::thread::sleep(Duration::from_millis(10));
-    }
+    wait_for(&d.join("o/.o.obj.lock"), &mut first);
     let out = scanatlas(&["defrag", "r/scan.obj", "-o", "o/o.obj", "-q"], d);
     let first_done = first.try_wait().unwrap();
     assert!(first_done.is_none(), "the first run ended before the second started; make it longer");

@@ -207,7 +207,9 @@ pub fn check_writable(model: &Model, format: ModelFormat, path: &Path) -> Result
         ModelFormat::Gltf | ModelFormat::Glb => f64::from(f32::MAX),
         ModelFormat::Obj | ModelFormat::Ply => f64::MAX,
     };
-    if let Some(i) = model.positions.iter().position(|p| p.iter().any(|c| !(c.abs() <= limit))) {
+    if let Some(i) =
+        model.positions.iter().position(|p| p.iter().any(|c| !c.is_finite() || c.abs() > limit))
+    {
         return Err(IoError::invalid(
             path,
             format!(

@@ -43,6 +43,16 @@ fn usage(msg: String) -> PipelineError {
     PipelineError::Usage(msg)
 }
 
+/// Whether `path` names one of `list`: the same file on disk (through links and `..`), or,
+/// for paths in folders that do not exist yet, the same path spelled differently.
+fn is_one_of(path: &Path, list: &[PathBuf]) -> bool {
+    let lexical = |p: &Path| match std::env::current_dir() {
+        Ok(cwd) => crate::io::paths::normalize(&cwd.join(p)),
+        Err(_) => crate::io::paths::normalize(p),
+    };
+    is_protected(path, list) || list.iter().any(|q| lexical(q) == lexical(path))
+}
+
 /// Checks the output and report paths against each other and the known inputs, touching
 /// nothing: the checks that need no file system changes, done first.
 pub fn check_paths(paths: &RunPaths<'_>) -> Result<(), PipelineError> {
@@ -59,7 +69,7 @@ pub fn check_paths(paths: &RunPaths<'_>) -> Result<(), PipelineError> {
     if output.is_dir() {
         return Err(usage(format!("the output {} is a folder", output.display())));
     }
-    if is_protected(output, paths.inputs) {
+    if is_one_of(output, paths.inputs) {
         return Err(usage(format!(
             "the output {} is the input model; choose another output path",
             output.display()
@@ -69,10 +79,10 @@ pub fn check_paths(paths: &RunPaths<'_>) -> Result<(), PipelineError> {
         if report.is_dir() {
             return Err(usage(format!("the report {} is a folder", report.display())));
         }
-        if is_protected(report, paths.inputs) {
+        if is_one_of(report, paths.inputs) {
             return Err(usage(format!("the report {} is an input file", report.display())));
         }
-        if is_protected(report, &planned_outputs(output)) || is_sheet_name(output, report) {
+        if is_one_of(report, &planned_outputs(output)) || is_sheet_name(output, report) {
             return Err(usage(format!(
                 "the report {} would overwrite a file of the output set",
                 report.display()
@@ -131,7 +141,7 @@ fn check_against_inputs(
 ) -> Result<(), PipelineError> {
     let mut names = planned_outputs(output);
     names.extend(report.map(Path::to_path_buf));
-    if let Some(p) = names.iter().find(|p| is_protected(p, protect)) {
+    if let Some(p) = names.iter().find(|p| is_one_of(p, protect)) {
         return Err(usage(format!(
             "the output file {} would overwrite an input file",
             p.display()

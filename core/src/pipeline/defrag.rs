@@ -314,20 +314,9 @@ pub fn defrag_with_progress(
     let emitted = if cfg.merge_only {
         Emitted::merge_only(merged_model(&loaded.model, &topo))
     } else {
-        progress(DefragStage::Pack);
-        let t = Instant::now();
         let mut charts = PackingCharts::new(&loaded.model, &topo, &layout);
-        let border = merge.uv_border_after;
-        let (packed, untangle) =
-            pack_stage(&mut topo, &mut charts, &loaded, &mut plugins, cfg, border)?;
-        times.pack_ms = ms(t);
-        ctx.checkpoint()?;
-
-        progress(DefragStage::Textures);
-        let t = Instant::now();
-        let emitted = texture_stage(&topo, &charts, packed, &mut loaded, cfg, &ctx, untangle)?;
-        times.textures_ms = ms(t);
-        emitted
+        let mut run = Run { loaded: &mut loaded, plugins: &mut plugins, cfg, ctx: &ctx };
+        run.pack_and_texture(&mut topo, &mut charts, merge.uv_border_after, &mut times, progress)?
     };
     let Loaded { model, stats_opts, input_stats, .. } = loaded;
     ctx.checkpoint()?;
@@ -367,6 +356,40 @@ pub fn defrag_with_progress(
         times,
         warnings,
     })
+}
+
+/// What the packing and texture stages share.
+struct Run<'a> {
+    loaded: &'a mut Loaded,
+    plugins: &'a mut Plugins,
+    cfg: &'a DefragConfig,
+    ctx: &'a RunContext,
+}
+
+impl Run<'_> {
+    /// The `Pack` and `Textures` stages.
+    fn pack_and_texture(
+        &mut self,
+        topo: &mut Topology,
+        charts: &mut PackingCharts,
+        border_len: f64,
+        times: &mut StageTimes,
+        progress: &mut dyn FnMut(DefragStage),
+    ) -> Result<Emitted, PipelineError> {
+        progress(DefragStage::Pack);
+        let t = Instant::now();
+        let (packed, untangle) =
+            pack_stage(topo, charts, self.loaded, self.plugins, self.cfg, border_len)?;
+        times.pack_ms = ms(t);
+        self.ctx.checkpoint()?;
+
+        progress(DefragStage::Textures);
+        let t = Instant::now();
+        let emitted =
+            texture_stage(topo, charts, packed, self.loaded, self.cfg, self.ctx, untangle)?;
+        times.textures_ms = ms(t);
+        Ok(emitted)
+    }
 }
 
 /// The largest output sheet side `--max-sheet-size` may ask for: the packer keeps a skyline

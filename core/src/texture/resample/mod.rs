@@ -330,6 +330,8 @@ pub fn resample_sheets(
         let mut counts = paint::Counts::default();
         let mut ty0 = 0;
         while ty0 < store.tiles_y() {
+            // A signal stops the run between bands (see `cancel`).
+            crate::cancel::check().map_err(|e| mapping_err(e.to_string()))?;
             let ty1 = ty0.saturating_add(band);
             let c = store
                 .par_tile_rows_mut(ty0, ty1)
