@@ -6,9 +6,14 @@
 //! ordinary quads read exactly as before. A non-convex one (a star, an L-shaped face) is split by
 //! ear clipping in the plane of its Newell normal instead, because a fan from a reflex corner
 //! covers area outside the polygon and turns faces over (in 3D and in UV). The polygon keeps its
-//! `n - 2` face slots, in place, with its winding.
+//! `n - 2` face slots, in place, with its winding. Polygons of more than [`MAX_EAR_CLIP_CORNERS`]
+//! corners keep their fan.
 
 use crate::model::Face;
+
+/// Polygons with more corners keep their fan: ear clipping costs up to the cube of the corner
+/// count, and a hostile file could hold a polygon of millions of corners.
+const MAX_EAR_CLIP_CORNERS: u32 = 256;
 
 /// A polygon the reader fan-triangulated: its first face and its corner count (more than 3).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -44,6 +49,9 @@ pub(crate) fn retriangulate(
     let mut s = Scratch::default();
     let mut clipped = 0;
     for p in polygons {
+        if p.corners > MAX_EAR_CLIP_CORNERS {
+            continue;
+        }
         let n = p.corners as usize;
         let Some(fan) = faces.get(p.first_face..p.first_face + n - 2) else { continue };
         s.corners.clear();

@@ -534,6 +534,8 @@ fn parse(path: &Path, bytes: &[u8], limit: u64, chunk: Option<usize>) -> Result<
     }
     let mut extras = ObjExtras { libraries, ..ObjExtras::default() };
     let mut current: Option<MaterialId> = None;
+    // An empty `usemtl` says "no material" on purpose (scanatlas writes it so).
+    let mut explicit_none = false;
     let mut starts = Vec::with_capacity(scans.len());
     let mut switches = Vec::with_capacity(scans.len());
     for (s, b) in scans.iter().zip(&bases) {
@@ -545,6 +547,7 @@ fn parse(path: &Path, bytes: &[u8], limit: u64, chunk: Option<usize>) -> Result<
                 DirectiveKind::Usemtl => {
                     // An empty `usemtl` (written for faces without material) means none.
                     current = (!d.text.is_empty()).then(|| table.material_for(&d.text));
+                    explicit_none |= d.text.is_empty();
                     sw.push((d.tri, current));
                 }
                 DirectiveKind::Group(kind) => extras.groups.push(GroupMarker {
@@ -621,7 +624,7 @@ fn parse(path: &Path, bytes: &[u8], limit: u64, chunk: Option<usize>) -> Result<
             format!("{other} unsupported statements skipped"),
         ));
     }
-    if let Some(w) = assume_lone_texture(&mut faces, &table) {
+    if let Some(w) = assume_lone_texture(&mut faces, &table, explicit_none) {
         warnings.push(w);
     }
 
@@ -643,8 +646,13 @@ fn parse(path: &Path, bytes: &[u8], limit: u64, chunk: Option<usize>) -> Result<
 /// `usemtl` line removed or a material renamed), the model's only textured material, when it has
 /// exactly one: their UVs can only index that texture, and leaving them untextured would drop
 /// them all in `defrag`. Returns the warning saying so. With several textured materials nothing
-/// is guessed; `io::read_model` then warns that the faces' UVs index no texture.
-fn assume_lone_texture(faces: &mut [Face], table: &MaterialTable) -> Option<Warning> {
+/// is guessed; `io::read_model` then warns that the faces' UVs index no texture. A file that
+/// says "no material" with an empty `usemtl` means it: only undefined materials are replaced.
+fn assume_lone_texture(
+    faces: &mut [Face],
+    table: &MaterialTable,
+    explicit_none: bool,
+) -> Option<Warning> {
     let mut textured = table.materials.iter().enumerate().filter(|(_, m)| m.sheet.is_some());
     let (lone, material) = textured.next()?;
     if textured.next().is_some() {
@@ -657,7 +665,11 @@ fn assume_lone_texture(faces: &mut [Face], table: &MaterialTable) -> Option<Warn
     }
     let mut assigned = 0u64;
     for face in faces.iter_mut().filter(|f| f.uv.is_some()) {
-        if face.material.is_none_or(|m| undefined[m.idx()]) {
+        let replace = match face.material {
+            None => !explicit_none,
+            Some(m) => undefined[m.idx()],
+        };
+        if replace {
             face.material = Some(lone);
             assigned += 1;
         }

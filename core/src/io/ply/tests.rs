@@ -230,7 +230,7 @@ fn meshlab_texcoords_two_texture_files_and_polygon() {
         "property list uchar float texcoord",
         "property int texnumber",
     ];
-    let body = "0 0 0\n1 0 0\n1 1 0\n0 1 0\n2 2 2\n\
+    let body = "0 0 0\n1 0 0\n1 1 0\n0 1 0\n-1 0.5 0\n\
                 3 0 1 2 6 0.1 0.1 0.2 0.1 0.2 0.2 1\n\
                 4 0 2 3 4 8 0 0 0.5 0 0.5 0.5 0 0.5 0\n\
                 3 1 2 4 0 1\n";
