@@ -180,6 +180,8 @@ fn a_valid_scan_has_no_warning() {
 
 /// Runs `scanatlas args` in `cwd` and returns its output with its peak resident memory in
 /// bytes (from `wait4`, for this child alone).
+// The child is reaped by `wait4` (which `Child::wait` cannot do: it drops the resource usage).
+#[allow(clippy::zombie_processes)]
 fn scanatlas_peak_rss(args: &[&str], cwd: &Path) -> (Output, u64) {
     use std::io::Read;
     let mut child = Command::new(env!("CARGO_BIN_EXE_scanatlas"))

@@ -367,8 +367,11 @@ mod tests {
     const POS_BITS: i32 = 14;
     const UV_BITS: i32 = 12;
 
+    /// Positions, UVs and triangles of a fixture mesh.
+    type Grid = (Vec<[f32; 3]>, Vec<[f32; 2]>, Vec<[u32; 3]>);
+
     /// A curved grid: positions in 0..1 (x, y) and z up to 0.25, UVs in 0..1.
-    fn grid() -> (Vec<[f32; 3]>, Vec<[f32; 2]>, Vec<[u32; 3]>) {
+    fn grid() -> Grid {
         let mut pos = Vec::new();
         let mut uv = Vec::new();
         for y in 0..SIDE {
