@@ -228,7 +228,10 @@ fn a_far_off_uv_costs_no_memory() {
     });
     let (out, peak) =
         scanatlas_peak_rss(&["defrag", "r/scan.obj", "-o", "o/o.obj", "-q"], dir.path());
-    assert_ok(&out);
+    // Either a whole run or the packer's clear refusal of the far chart: never a crash.
+    let clean_refusal =
+        out.status.code() == Some(1) && stderr(&out).starts_with("scanatlas: error: packing:");
+    assert!(out.status.success() || clean_refusal, "{:?}: {}", out.status, stderr(&out));
     assert!(peak < 200 << 20, "peak resident memory {} MB", peak >> 20);
 }
 
@@ -401,7 +404,7 @@ fn references_outside_the_folder_leak_nothing_and_can_be_refused() {
         .collect();
     std::fs::write(r.join("scan.mtl"), &edited).unwrap();
     let out = scanatlas(&["stats", "r/scan.obj"], dir.path());
-    assert_fails_with(&out, "not a PNG, JPEG, TIFF or OpenEXR file");
+    assert_fails_with(&out, "not a PNG, JPEG, TIFF, OpenEXR or WebP file");
     let err = stderr(&out);
     for leak in ["root", "secret-content", "72 6f 6f 74"] {
         assert!(!err.contains(leak), "the error leaks the file: {err}");
