@@ -77,7 +77,8 @@ def test_the_gil_is_released_while_working(scan: Path, tmp_path: Path):
     t = threading.Thread(target=ticker)
     t.start()
     try:
-        scanatlas.defrag(scan, tmp_path / "o.obj", merge_only=True)
+        # A whole run (textures too), long enough for a thread that runs beside it to tick often.
+        scanatlas.defrag(scan, tmp_path / "o.obj")
     finally:
         done.set()
         t.join()
@@ -130,8 +131,8 @@ def test_the_input_is_never_overwritten(scan: Path):
 def test_build_refuses_bad_options_and_missing_cameras(scan: Path, tmp_path: Path):
     with pytest.raises(ValueError, match="no_such"):
         scanatlas.build(scan, tmp_path, tmp_path, tmp_path / "o.obj", no_such=1)
-    # The core reports an unusable cameras path as a usage error, hence ValueError.
-    with pytest.raises(ValueError, match="not a COLMAP model folder"):
+    # A cameras path that holds no camera model is a bad input, not a bad option.
+    with pytest.raises(scanatlas.ModelError, match="not a COLMAP model folder"):
         scanatlas.build(scan, tmp_path / "none", tmp_path, tmp_path / "o.obj")
 
 
