@@ -22,7 +22,9 @@ fn main() -> ExitCode {
         return ExitCode::from(1);
     }
     let result = commands::run(args);
-    if let Some(signal) = scanatlas_core::cancel::signal().filter(|&s| s > 0) {
+    // A signal that arrives after the last safe point finds the work done: the run completed (its
+    // report says so), and its exit status says the same.
+    if let Some(signal) = scanatlas_core::cancel::signal().filter(|&s| s > 0 && result.is_err()) {
         // The run stopped at a safe point and removed its temporary files; the shell's
         // convention for a death by signal N is 128 + N.
         eprintln!("scanatlas: interrupted by signal {signal}");
