@@ -212,7 +212,7 @@ fn scanatlas_peak_rss(args: &[&str], cwd: &Path) -> (Output, u64) {
     (out, usage.ru_maxrss as u64 * 1024)
 }
 
-/// Case 9: one far-off UV (`vt 1000000 1000000`) in a 1,000-face model cost 2.4–3 GB (the face
+/// Case 9: one far-off UV (`vt 1000000 1000000`) in a 1,000-face model cost gigabytes (the face
 /// grid was sized from the UV bounding box). Memory now follows the content. (The packer then
 /// refuses the far chart with a clear error, as before: the run must end cleanly either way.)
 #[test]

@@ -193,7 +193,7 @@ mod tests {
 
     #[test]
     fn a_far_off_extent_costs_cells_by_content_not_by_extent() {
-        // Before: one outlier at a million sheet widths gave 4096 × 4096 cells.
+        // One outlier far beyond the sheet must not size the grid by the whole extent.
         let mut g = FaceGrid::new([0.0, 0.0, 5e8, 5e8], 20.0, 1000);
         assert!(g.cells.len() <= max_cells(1000), "{}", g.cells.len());
         // The cells keep the content's side, so nearby faces stay apart...

@@ -122,9 +122,9 @@ fn fmt_change(before: u64, after: u64) -> Option<String> {
     Some(if r < 0.0 { format!("−{}%", -r) } else { format!("+{r}%") })
 }
 
-/// The headline in plain words, e.g. "4096² → 1208×1297 (−91% texels), charts 711 → 92, 15% of
-/// the surface copied texel for texel, colour PSNR 43.7 dB against the input, no flipped or
-/// overlapping faces, no face lost".
+/// The headline in plain words: sheet sizes and the texel change, charts before and after, the
+/// share of the surface copied texel for texel, the colour PSNR against the input, new defects
+/// and lost faces, each only when it was measured.
 pub fn headline(f: &Figures) -> String {
     let a = &f.after;
     let mut parts = Vec::new();
