@@ -2,16 +2,10 @@
 //! panic), and the zero-input commands.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn scanatlas(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_scanatlas"))
-        .args(args)
-        .current_dir(cwd)
-        .env_remove("SCANATLAS_LOG")
-        .output()
-        .expect("the scanatlas binary runs")
-}
+mod common;
+use common::scanatlas;
 
 /// Asserts a clean failure: exit status 1, an error line naming `needle`, no panic.
 #[track_caller]

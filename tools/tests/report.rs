@@ -3,16 +3,10 @@
 //! another mesh (refused), the folder rules, and `--progress json`.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn scanatlas(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_scanatlas"))
-        .args(args)
-        .current_dir(cwd)
-        .env_remove("SCANATLAS_LOG")
-        .output()
-        .expect("the scanatlas binary runs")
-}
+mod common;
+use common::scanatlas;
 
 #[track_caller]
 fn ok(out: &Output) -> String {

@@ -6,14 +6,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn scanatlas(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_scanatlas"))
-        .args(args)
-        .current_dir(cwd)
-        .env_remove("SCANATLAS_LOG")
-        .output()
-        .expect("the scanatlas binary runs")
-}
+mod common;
+use common::scanatlas;
 
 fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
