@@ -37,6 +37,8 @@ pub enum WarningCode {
     UnsupportedExtension,
     /// A texture index or assignment the reader had to guess or ignore.
     TextureAssignment,
+    /// Faces whose UVs span more than any sheet can hold: collapsed to one of their corners.
+    StrayUvs,
 }
 
 impl WarningCode {
@@ -54,6 +56,7 @@ impl WarningCode {
             Self::PartialTriangle => "partial-triangle",
             Self::UnsupportedExtension => "unsupported-extension",
             Self::TextureAssignment => "texture-assignment",
+            Self::StrayUvs => "stray-uvs",
         }
     }
 }
@@ -111,6 +114,7 @@ impl WarningCode {
                 | Self::TextureOptionsIgnored
                 | Self::NonFiniteUvs
                 | Self::TextureAssignment
+                | Self::StrayUvs
         )
     }
 }

@@ -207,10 +207,12 @@ fn scanatlas_peak_rss(args: &[&str], cwd: &Path) -> (Output, u64) {
 }
 
 /// Case 9: one far-off UV (`vt 1000000 1000000`) in a 1,000-face model cost gigabytes (the face
-/// grid was sized from the UV bounding box). Memory now follows the content. (The packer then
-/// refuses the far chart with a clear error, as before: the run must end cleanly either way.)
+/// grid was sized from the UV bounding box), and then the packer refused the far chart. Memory now
+/// follows the content, and the faces that span more than any sheet are collapsed onto a sane
+/// corner with a `stray-uvs` warning: the run completes with every face, and `--strict` refuses
+/// it before writing anything.
 #[test]
-fn a_far_off_uv_costs_no_memory() {
+fn a_far_off_uv_costs_no_memory_and_is_collapsed_with_a_warning() {
     let dir = tempfile::tempdir().unwrap();
     let r = synth(dir.path(), "r", 1000);
     let mut first = true;
@@ -220,13 +222,25 @@ fn a_far_off_uv_costs_no_memory() {
         }
         Some(l.to_string())
     });
-    let (out, peak) =
-        scanatlas_peak_rss(&["defrag", "r/scan.obj", "-o", "o/o.obj", "-q"], dir.path());
-    // Either a whole run or the packer's clear refusal of the far chart: never a crash.
-    let clean_refusal =
-        out.status.code() == Some(1) && stderr(&out).starts_with("scanatlas: error: packing:");
-    assert!(out.status.success() || clean_refusal, "{:?}: {}", out.status, stderr(&out));
+    let (out, peak) = scanatlas_peak_rss(
+        &["defrag", "r/scan.obj", "-o", "o/o.obj", "--report", "o/r.json", "-q"],
+        dir.path(),
+    );
+    assert_ok(&out);
+    assert!(stderr(&out).contains("[stray-uvs]"), "{}", stderr(&out));
     assert!(peak < 200 << 20, "peak resident memory {} MB", peak >> 20);
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("o/r.json")).unwrap()).unwrap();
+    assert!(warning_codes(&report).contains(&"stray-uvs".to_string()));
+    assert_eq!(report["faces_unpacked"], 0, "{}", report["faces_unpacked"]);
+    let in_stats = stats(dir.path(), &r.join("scan.obj"));
+    let out_stats = stats(dir.path(), &dir.path().join("o/o.obj"));
+    assert_eq!(out_stats["faces"], in_stats["faces"]);
+    assert_eq!(out_stats["faces_without_uv"], 0, "{out_stats}");
+    assert_eq!(out_stats["faces_without_texture"], 0, "{out_stats}");
+    let strict = scanatlas(&["--strict", "defrag", "r/scan.obj", "-o", "s/o.obj"], dir.path());
+    assert_fails_with(&strict, "stray-uvs");
+    assert!(!dir.path().join("s/o.obj").exists());
 }
 
 /// Runs `scanatlas args`, failing the test instead of hanging when it takes over 60 s.

@@ -302,6 +302,8 @@ pub fn defrag_with_progress(
     progress(DefragStage::Prepare);
     let t = Instant::now();
     let mut topo = Topology::build(&loaded.model, &loaded.in_sizes)?;
+    let prepare_warnings = preparation_warnings(&topo);
+    crate::warnings::check_strict(cfg.strict, &prepare_warnings)?;
     times.prepare_ms = ms(t);
     ctx.checkpoint()?;
 
@@ -332,7 +334,7 @@ pub fn defrag_with_progress(
     let t = Instant::now();
     let (output_stats, output_warnings) = output_stats(output, &stats_opts)?;
     let (input_stats, _) = input_stats.finish();
-    let warnings = [&model.warnings[..], &output_warnings[..]].concat();
+    let warnings = [&model.warnings[..], &prepare_warnings[..], &output_warnings[..]].concat();
     times.metrics_ms = ms(t);
     times.total_ms = ms(t_all);
     Ok(DefragReport {
@@ -356,6 +358,25 @@ pub fn defrag_with_progress(
         times,
         warnings,
     })
+}
+
+/// The warnings of the preparation stage: faces whose UVs had to be collapsed.
+fn preparation_warnings(topo: &Topology) -> Vec<crate::warnings::Warning> {
+    use crate::warnings::{Warning, WarningCode};
+    let stray = topo.report.frozen_faces.stray_uv;
+    let mut warnings = Vec::new();
+    if stray > 0 {
+        warnings.push(Warning::new(
+            WarningCode::StrayUvs,
+            format!(
+                "{stray} faces have texture coordinates spanning more than {} texels, far \
+                 outside their sheet; each was collapsed onto its middle corner and shows that \
+                 corner's colour",
+                crate::topology::STRAY_UV_SPAN
+            ),
+        ));
+    }
+    warnings
 }
 
 /// What the packing and texture stages share.

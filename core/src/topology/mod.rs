@@ -34,7 +34,7 @@ pub use edges::MeshEdge;
 pub use ids::{ChainId, ChartId, EdgeId, HalfEdgeId, LinkId, OpId, PosId, UvVertId};
 pub use ops::{OpKind, Operation};
 pub use seams::{Chain, LinkedPair};
-pub use texel::{FrozenReasons, ZERO_UV_AREA};
+pub use texel::{FrozenReasons, STRAY_UV_SPAN, ZERO_UV_AREA};
 
 use crate::model::Model;
 
@@ -59,6 +59,8 @@ pub struct FrozenCounts {
     pub degenerate: u64,
     pub zero_area_3d: u64,
     pub zero_area_uv: u64,
+    /// Faces whose UVs spanned more than any sheet and were collapsed to a point.
+    pub stray_uv: u64,
 }
 
 /// Time spent in one preparation stage.
@@ -293,6 +295,7 @@ impl Topology {
             frozen.degenerate += count(FrozenReasons::DEGENERATE);
             frozen.zero_area_3d += count(FrozenReasons::ZERO_AREA_3D);
             frozen.zero_area_uv += count(FrozenReasons::ZERO_AREA_UV);
+            frozen.stray_uv += count(FrozenReasons::STRAY_UV);
         }
         let mut referenced = vec![false; n_positions];
         for p in &corner_pos {

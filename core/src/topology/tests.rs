@@ -435,6 +435,24 @@ fn non_finite_uvs_are_counted_and_isolated() {
 }
 
 #[test]
+fn a_face_spanning_more_than_any_sheet_is_collapsed_onto_its_middle_corner() {
+    let mut m = model(
+        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
+        &[Some((512, 512))],
+    );
+    face(&mut m, [0, 1, 2], Some([[0.0, 0.0], [0.5, 0.0], [0.5, 0.5]]), Some(0));
+    face(&mut m, [0, 2, 3], Some([[0.0, 0.0], [0.5, 0.5], [1e6, 1e6]]), Some(0));
+    let t = build(&m);
+    assert_eq!(t.report.frozen_faces.stray_uv, 1);
+    assert!(t.face_flags[1].has(FrozenReasons::STRAY_UV));
+    assert!(t.face_flags[1].has(FrozenReasons::ZERO_AREA_UV));
+    // The sane face keeps its UVs and the two faces still form one chart with a small box.
+    assert!(!t.face_flags[0].is_frozen());
+    assert_eq!(t.report.charts, 1);
+    assert!(t.charts.iter().all(|c| c.bbox[2] - c.bbox[0] <= 512.0));
+}
+
+#[test]
 fn repeat_wrapped_chart_is_rebased_by_exactly_one_period() {
     let mut m = model(
         vec![

@@ -25,6 +25,9 @@ impl FrozenReasons {
     pub const ZERO_AREA_3D: u8 = 1 << 4;
     /// Its texel-space area is below [`ZERO_UV_AREA`].
     pub const ZERO_AREA_UV: u8 = 1 << 5;
+    /// Its UVs spanned more than [`STRAY_UV_SPAN`] texels and were collapsed to one of its
+    /// corners (it then also has [`Self::ZERO_AREA_UV`]).
+    pub const STRAY_UV: u8 = 1 << 6;
 
     /// Whether any reason is set.
     #[inline]
@@ -64,6 +67,12 @@ impl FrozenReasons {
 /// deliberately far below the evaluator's 1e-6 "degenerate" statistic, which is a report, not a
 /// freeze criterion.
 pub const ZERO_UV_AREA: f64 = 1e-12;
+
+/// A face whose UVs span more texels than this along either axis is a stray: no sheet can hold
+/// it (the largest sheet `--max-sheet-size` allows has this side), so its texture cannot be
+/// carried over. Exporters leave such faces when one corner gets a garbage coordinate (a UV of a
+/// million); the texture they show is a smear of the whole sheet repeated, not an image.
+pub const STRAY_UV_SPAN: f64 = 65_536.0;
 
 /// Output of the texel stage: per-corner texel-space UVs and per-face sheet and flags.
 pub(crate) struct TexelSpace {
@@ -114,12 +123,38 @@ pub(crate) fn to_texel_space(model: &Model, sheet_sizes: &[Option<(u32, u32)>]) 
                 if !finite {
                     flags |= FrozenReasons::NON_FINITE_UV;
                     corner_uv[3 * f..3 * f + 3].fill([0.0; 2]);
+                } else if collapse_stray(&mut corner_uv[3 * f..3 * f + 3]) {
+                    flags |= FrozenReasons::STRAY_UV;
                 }
             }
         }
         face_flags[f] = FrozenReasons(flags);
     }
     TexelSpace { corner_uv, face_sheet, face_flags, non_finite_uvs }
+}
+
+/// Collapses a face whose texel-space UVs span more than [`STRAY_UV_SPAN`] onto its medoid
+/// corner (the one nearest the other two), and says whether it did.
+///
+/// The face then has no UV area: it is frozen, rides along with the chart its medoid corner
+/// belongs to, and shows the colour there, which is the colour its sane corners showed. Packing
+/// it as it was would ask for a chart larger than any sheet.
+fn collapse_stray(corners: &mut [[f64; 2]]) -> bool {
+    let span = |axis: usize| {
+        let (lo, hi) = corners
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), c| (lo.min(c[axis]), hi.max(c[axis])));
+        hi - lo
+    };
+    if span(0) <= STRAY_UV_SPAN && span(1) <= STRAY_UV_SPAN {
+        return false;
+    }
+    let dist = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
+    let spread = |k: usize| corners.iter().map(|&c| dist(c, corners[k])).sum::<f64>();
+    let medoid = (0..corners.len()).min_by(|&a, &b| spread(a).total_cmp(&spread(b))).unwrap_or(0);
+    let keep = corners[medoid];
+    corners.fill(keep);
+    true
 }
 
 /// Twice the signed area of a 2-D triangle (positive when counter-clockwise).
