@@ -41,10 +41,17 @@ fn main() -> ExitCode {
             for w in strict_warnings(&err) {
                 eprintln!("scanatlas: warning: {w}");
             }
-            // One line per cause, outermost first, so cron logs stay readable.
-            eprintln!("scanatlas: error: {err}");
+            // One line per cause, outermost first, so cron logs stay readable. Error types that
+            // quote their source in their own message would print it twice: such a cause is
+            // left out.
+            let mut shown = err.to_string();
+            eprintln!("scanatlas: error: {shown}");
             for cause in err.chain().skip(1) {
-                eprintln!("  caused by: {cause}");
+                let cause = cause.to_string();
+                if !shown.contains(&cause) {
+                    eprintln!("  caused by: {cause}");
+                }
+                shown = cause;
             }
             ExitCode::from(1)
         }
