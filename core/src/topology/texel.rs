@@ -141,9 +141,9 @@ pub(crate) fn to_texel_space(model: &Model, sheet_sizes: &[Option<(u32, u32)>]) 
 /// it as it was would ask for a chart larger than any sheet.
 fn collapse_stray(corners: &mut [[f64; 2]]) -> bool {
     let span = |axis: usize| {
-        let (lo, hi) = corners
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), c| (lo.min(c[axis]), hi.max(c[axis])));
+        let (lo, hi) = corners.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), c| {
+            (lo.min(c[axis]), hi.max(c[axis]))
+        });
         hi - lo
     };
     if span(0) <= STRAY_UV_SPAN && span(1) <= STRAY_UV_SPAN {

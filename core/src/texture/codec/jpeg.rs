@@ -231,6 +231,7 @@ fn read_strips<R: BufRead>(
         let done = y + n as u32;
         if done / TILE > y / TILE {
             store.release_tile_rows(y / TILE, done / TILE);
+            super::stop_requested().map_err(|m| decode_err(name, m))?;
         }
         y = done;
     }
@@ -433,6 +434,9 @@ pub(super) fn encode_in_strips(
             height: rows,
             raw: RefCell::new(vec![0u8; width as usize * store.format().bytes_per_pixel()]),
         };
+        // The encoder pulls rows through a trait that cannot fail, so the stop is checked per
+        // strip.
+        super::stop_requested()?;
         let mut enc = jpeg_encoder::Encoder::new(out, quality);
         enc.set_sampling_factor(sampling);
         enc.encode_image(image).map_err(|e| e.to_string())?;

@@ -169,6 +169,13 @@ pub(super) fn decode_err(name: &str, msg: impl Into<String>) -> TextureError {
     TextureError::Decode { image: name.to_string(), msg: msg.into() }
 }
 
+/// `Err` with the stop's message when a stop was asked for. The codecs call it once per row of
+/// tiles, so a signal that arrives while a gigapixel sheet is decoded or encoded takes effect
+/// within one tile row instead of after the whole image.
+pub(super) fn stop_requested() -> Result<(), String> {
+    crate::cancel::check().map_err(|e| e.to_string())
+}
+
 /// Runs `f`, turning a panic inside a third-party codec into a decode error: a malformed file
 /// must never abort the program. mozjpeg reports every libjpeg error this way by design; for the
 /// pure-Rust crates it is a last line of defence against their bugs.

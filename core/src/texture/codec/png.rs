@@ -87,6 +87,7 @@ pub(crate) fn decode(op: Opened<'_>, work_dir: &Path) -> Result<TileStore, Textu
             store.write_row(y, 0, &scratch);
             if (y + 1).is_multiple_of(TILE) {
                 store.release_tile_rows((y + 1) / TILE - 1, (y + 1) / TILE);
+                super::stop_requested().map_err(|m| decode_err(&name, m))?;
             }
         }
     } else {
@@ -102,6 +103,9 @@ pub(crate) fn decode(op: Opened<'_>, work_dir: &Path) -> Result<TileStore, Textu
             let n = samples as usize * bpp;
             for line in 0..lines {
                 let y = y0 + line * dy;
+                if line.is_multiple_of(TILE) {
+                    super::stop_requested().map_err(|m| decode_err(&name, m))?;
+                }
                 let row =
                     reader.next_row().map_err(|e| err(&name, e))?.ok_or_else(|| truncated(y))?;
                 let data = row.data();
@@ -156,6 +160,7 @@ pub(crate) fn encode(store: &TileStore, w: &mut dyn Write) -> Result<(), String>
         stream.write_all(&row).map_err(|e| e.to_string())?;
         if (y + 1).is_multiple_of(TILE) {
             store.release_tile_rows((y + 1) / TILE - 1, (y + 1) / TILE);
+            super::stop_requested()?;
         }
     }
     stream.finish().map_err(|e| e.to_string())?;

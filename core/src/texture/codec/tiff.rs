@@ -166,6 +166,7 @@ fn decode_inner(op: Opened<'_>, work_dir: &Path) -> Result<TileStore, TextureErr
             if done > released {
                 store.release_tile_rows(released, done);
                 released = done;
+                super::stop_requested().map_err(|m| decode_err(&name, m))?;
             }
         }
     }
@@ -243,6 +244,7 @@ fn write_tiled<W: Write + Seek, K: TiffKind>(
     let mut offsets: Vec<u64> = Vec::with_capacity(n_tiles);
     let mut counts: Vec<u32> = Vec::with_capacity(n_tiles);
     for ty in 0..store.tiles_y() {
+        super::stop_requested()?;
         // One row of tiles is compressed in parallel, then written in order; only that row's
         // compressed tiles are ever held in memory.
         let row: Vec<Vec<u8>> = (0..store.tiles_x())
