@@ -4,12 +4,13 @@
 
 use super::PipelineError;
 use crate::defrag::{MergedLayout, UntangleOptions, UntangleReport, untangle_charts};
+use crate::index::NONE;
 use crate::model::Model;
 use crate::pack::{LayoutInput, PackOptions, PackedLayout, RigidSplitReport, anchor_faces};
 use crate::plugin::LocalSolver;
 use crate::topology::Topology;
 
-/// The chart of every face for packing (`u32::MAX` for faces left out), with what packing
+/// The chart of every face for packing (`NONE` for faces left out), with what packing
 /// needs beside it.
 pub(super) struct PackingCharts {
     pub face_chart: Vec<u32>,
@@ -98,7 +99,7 @@ impl PackingCharts {
     }
 }
 
-/// The chart of each face for packing (`u32::MAX` for faces without usable UVs or without a
+/// The chart of each face for packing (`NONE` for faces without usable UVs or without a
 /// sheet, which packing leaves out) and the number of such faces.
 fn packing_charts(t: &Topology, layout: &MergedLayout, n_sheets: usize) -> (Vec<u32>, u64) {
     let mut unpacked = 0;
@@ -108,7 +109,7 @@ fn packing_charts(t: &Topology, layout: &MergedLayout, n_sheets: usize) -> (Vec<
                 layout.face_chart[f]
             } else {
                 unpacked += 1;
-                u32::MAX
+                NONE
             }
         })
         .collect();

@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 
 use super::color::{linear_to_srgb8, patchy_color, srgb8_to_linear, true_color};
 use super::{Shape, cameras, mesh};
+use crate::index::NONE;
 use crate::index::VertexId;
 use crate::model::{Face, Model};
 use crate::photo_atlas::cameras::{Distortion, Intrinsics, PhotoCamera, Rig};
@@ -127,7 +128,7 @@ pub fn render(
     let mut store = TileStore::create(work, w, h, PixelFormat::RGB8)?;
     let n = (w * h) as usize;
     let mut depth = vec![f64::INFINITY; n];
-    let mut hit: Vec<(u32, [f64; 3])> = vec![(u32::MAX, [0.0; 3]); n];
+    let mut hit: Vec<(u32, [f64; 3])> = vec![(NONE, [0.0; 3]); n];
     let full = PixelRect::new(0, 0, w, h);
     let centre = cam.centre();
     for (f, t) in m.tris.iter().enumerate() {
@@ -169,7 +170,7 @@ pub fn render(
     for j in 0..h {
         for i in 0..w {
             let (f, b) = hit[(j * w + i) as usize];
-            if f == u32::MAX {
+            if f == NONE {
                 continue;
             }
             let t = m.tris[f as usize];

@@ -1,7 +1,7 @@
 //! Texel space: every face's normalized UVs scaled by its sheet size, the reasons a face is
 //! frozen, and the per-chart rebasing of REPEAT-wrapped UVs (digest §2.3, §2.9).
 
-use crate::index::FaceId;
+use crate::index::{FaceId, NONE};
 use crate::model::Model;
 use crate::texture::coords::uv_to_texel;
 
@@ -69,7 +69,7 @@ pub const ZERO_UV_AREA: f64 = 1e-12;
 pub(crate) struct TexelSpace {
     /// Texel-space UV of corner `3·f + k` (`[0, 0]` for faces without usable UVs).
     pub corner_uv: Vec<[f64; 2]>,
-    /// The face's sheet index (`u32::MAX` when it has none).
+    /// The face's sheet index (`NONE` when it has none).
     pub face_sheet: Vec<u32>,
     pub face_flags: Vec<FrozenReasons>,
     /// Number of UV coordinates (wedges) that are NaN or infinite.
@@ -81,7 +81,7 @@ pub(crate) struct TexelSpace {
 pub(crate) fn to_texel_space(model: &Model, sheet_sizes: &[Option<(u32, u32)>]) -> TexelSpace {
     let nf = model.faces.len();
     let mut corner_uv = vec![[0.0; 2]; 3 * nf];
-    let mut face_sheet = vec![u32::MAX; nf];
+    let mut face_sheet = vec![NONE; nf];
     let mut face_flags = vec![FrozenReasons::default(); nf];
     let mut non_finite_uvs = 0u64;
     for (f, face) in model.faces.iter().enumerate() {
