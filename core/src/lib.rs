@@ -20,6 +20,7 @@ pub mod photo_atlas;
 pub mod pipeline;
 pub mod plugin;
 pub mod report;
+pub mod rng;
 pub mod synth;
 pub mod texture;
 pub mod topology;

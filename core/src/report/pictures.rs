@@ -9,7 +9,7 @@ use std::path::Path;
 use super::ReportError;
 use super::compare::{Comparison, FaceClass, Side};
 use crate::index::NONE;
-use crate::synth::rng::mix64;
+use crate::rng::mix64;
 use crate::texture::raster::{PixelRect, TriangleRaster};
 use crate::texture::{PixelFormat, SampleType, TileStore};
 

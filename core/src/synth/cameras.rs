@@ -10,7 +10,7 @@
 use rayon::prelude::*;
 
 use super::mesh::{Mesh, tri_normal};
-use super::rng::{SplitMix64, hash3, signed_f64, value_noise};
+use crate::rng::{SplitMix64, hash3, signed_f64, value_noise};
 
 /// A pinhole camera. Image-plane coordinates are `focal · (x/z, y/z)` in camera axes, so the
 /// texel density of a surface seen by it falls off as `focal / depth`.

@@ -9,7 +9,7 @@
 use rayon::prelude::*;
 
 use super::Shape;
-use super::rng::{fbm, hash3, signed_f64};
+use crate::rng::{fbm, hash3, signed_f64};
 
 pub use crate::index::NONE;
 

@@ -75,7 +75,7 @@ fn err(e: impl std::fmt::Display) -> super::SynthError {
 
 /// Pseudo-random number in `[-1, 1]` from a seed and two indices.
 fn rnd(seed: u64, a: u64, b: u64) -> f64 {
-    super::rng::signed_f64(super::rng::hash3(seed, a, b))
+    crate::rng::signed_f64(crate::rng::hash3(seed, a, b))
 }
 
 /// The rig's cameras: [`cameras::place`]'s regular cameras in the OpenCV convention.
