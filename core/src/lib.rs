@@ -25,6 +25,7 @@ pub mod synth;
 pub mod texture;
 pub mod topology;
 pub mod union_find;
+pub mod vec3;
 pub mod warnings;
 
 pub use index::{FaceId, MaterialId, NormalId, SheetId, UvId, VertexId};

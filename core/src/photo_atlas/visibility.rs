@@ -5,9 +5,10 @@
 
 use rayon::prelude::*;
 
-use super::cameras::{PhotoCamera, cross, dot, normalize, sub};
+use super::cameras::PhotoCamera;
 use crate::index::NONE;
 use crate::texture::raster::{PixelRect, rasterize_triangle};
+use crate::vec3::{cross, dot, normalize, sub};
 
 /// Options of [`compute`].
 #[derive(Clone, Copy, Debug, serde::Serialize)]

@@ -135,9 +135,7 @@ pub fn render(
         let p = t.map(|v| m.positions[v as usize]);
         let (nrm, _) = mesh::tri_normal(p);
         let cen = [0, 1, 2].map(|k| (p[0][k] + p[1][k] + p[2][k]) / 3.0);
-        if crate::photo_atlas::cameras::dot(nrm, crate::photo_atlas::cameras::sub(centre, cen))
-            <= 0.0
-        {
+        if crate::vec3::dot(nrm, crate::vec3::sub(centre, cen)) <= 0.0 {
             continue;
         }
         let mut tri = [[0.0; 2]; 3];

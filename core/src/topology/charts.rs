@@ -3,10 +3,11 @@
 
 use super::edges::Adjacency;
 use super::ids::{ChartId, HalfEdgeId, PosId, UvVertId};
-use super::texel::{FrozenReasons, area_3d, rebase_shift, signed_area2};
+use super::texel::{FrozenReasons, rebase_shift, signed_area2};
 use crate::index::NONE;
 use crate::index::SheetId;
 use crate::union_find::UnionFind;
+use crate::vec3::triangle_area;
 
 /// A chart and the quantities the scorer reads from it (reference `FaceGroup::UpdateCache`).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -264,7 +265,7 @@ pub(crate) fn chart_caches(
         ch.sheet = (face_sheet[f] != NONE).then_some(SheetId(face_sheet[f]));
         ch.n_faces += 1;
         let v = face_vertices[f];
-        ch.area_3d += area_3d([positions[v[0]], positions[v[1]], positions[v[2]]]);
+        ch.area_3d += triangle_area([positions[v[0]], positions[v[1]], positions[v[2]]]);
         if face_flags[f].has_usable_uv() {
             let t = |k: usize| uv.uv_pos[uv.corner_uv[3 * f + k].idx()];
             ch.area_signed += 0.5 * signed_area2(t(0), t(1), t(2));

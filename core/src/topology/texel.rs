@@ -128,20 +128,6 @@ pub(crate) fn signed_area2(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
     (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
 }
 
-/// The area of a 3-D triangle, computed relative to its first corner so georeferenced
-/// coordinates keep their precision.
-#[inline]
-pub(crate) fn area_3d(p: [[f64; 3]; 3]) -> f64 {
-    let d1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
-    let d2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
-    let c = [
-        d1[1] * d2[2] - d1[2] * d2[1],
-        d1[2] * d2[0] - d1[0] * d2[2],
-        d1[0] * d2[1] - d1[1] * d2[0],
-    ];
-    0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
-}
-
 /// The whole-period shift that brings a chart's texel bounding box back near its sheet, or
 /// `None` when it is already within one texel of `[0, W] × [0, H]`.
 ///
