@@ -377,7 +377,7 @@ fn random_model(n: usize, seed: u64) -> Fixture {
     let mut c = 0;
     let mut x = 0;
     while x < n {
-        let w = 1 + rng.below(6) as usize;
+        let w = 1 + rng.below(6);
         for cc in col_chart.iter_mut().skip(x).take(w) {
             *cc = c;
         }
@@ -388,7 +388,7 @@ fn random_model(n: usize, seed: u64) -> Fixture {
     let mut row_chart = vec![0usize; n];
     let (mut r, mut y) = (0, 0);
     while y < n {
-        let h = 1 + rng.below(4) as usize;
+        let h = 1 + rng.below(4);
         for rc in row_chart.iter_mut().skip(y).take(h) {
             *rc = r;
         }

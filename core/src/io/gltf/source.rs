@@ -11,6 +11,8 @@ use serde_json::Value;
 
 use super::uri;
 use crate::io::IoError;
+/// The directory relative URIs are resolved against: the folder of the glTF file.
+pub(super) use crate::io::paths::parent_dir as base_dir;
 
 const GLB_MAGIC: &[u8; 4] = b"glTF";
 const CHUNK_JSON: u32 = 0x4E4F_534A;
@@ -221,14 +223,6 @@ pub(super) fn check_compression(path: &Path, json: &Value) -> Result<(), IoError
         }
     }
     Ok(())
-}
-
-/// The directory relative URIs are resolved against.
-pub(super) fn base_dir(path: &Path) -> PathBuf {
-    match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    }
 }
 
 /// Loads every buffer of the document, each limited to its `byteLength`.
