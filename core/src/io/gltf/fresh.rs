@@ -61,7 +61,7 @@ pub(super) fn build(
     binary: bool,
     opts: &WriteOptions,
 ) -> Result<(Value, Bin), IoError> {
-    let out_dir = opts.final_path(&super::source::base_dir(path));
+    let out_dir = opts.final_path(&crate::io::paths::parent_dir(path));
     let corners = model.faces.len() * 3;
     if corners > u32::MAX as usize {
         return Err(IoError::unsupported(path, "too many faces for 32-bit glTF indices"));

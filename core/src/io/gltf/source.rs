@@ -11,8 +11,7 @@ use serde_json::Value;
 
 use super::uri;
 use crate::io::IoError;
-/// The directory relative URIs are resolved against: the folder of the glTF file.
-pub(super) use crate::io::paths::parent_dir as base_dir;
+use crate::io::paths::parent_dir;
 
 const GLB_MAGIC: &[u8; 4] = b"glTF";
 const CHUNK_JSON: u32 = 0x4E4F_534A;
@@ -235,7 +234,7 @@ pub(super) fn load_buffers(
     let Some(list) = json.get("buffers") else { return Ok(Vec::new()) };
     let list =
         list.as_array().ok_or_else(|| IoError::invalid(path, "`buffers` is not an array"))?;
-    let dir = base_dir(path);
+    let dir = parent_dir(path);
     let mut out = Vec::with_capacity(list.len());
     for (i, b) in list.iter().enumerate() {
         let declared = b.get("byteLength").and_then(Value::as_u64).ok_or_else(|| {

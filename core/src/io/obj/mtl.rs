@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use super::lex::{for_each_line, is_blank, rest_text, split_keyword, trim};
 use crate::index::{MaterialId, SheetId};
 use crate::io::IoError;
-pub(super) use crate::io::paths::parent_dir;
+use crate::io::paths::parent_dir;
 use crate::model::{ImageSource, Material, Sheet};
 use crate::warnings::{Warning, WarningCode};
 
