@@ -31,6 +31,7 @@ mod state;
 mod undo;
 mod unfold;
 mod untangle;
+mod verdict;
 mod zero_area;
 
 pub(crate) use grid::tri_bbox;
