@@ -5,20 +5,15 @@
 
 use std::time::Instant;
 
-use super::RejectReason;
 use super::commit::CommitRecord;
 use super::grid::tri_bbox;
 use super::ops::{OpGeometry, dist};
 use super::patch::{find, union};
 use super::state::{Engine, NONE};
 use super::verdict::Verdict;
+use super::{RejectReason, ms};
 use crate::geometry::triangles_overlap_beyond_noise as overlap;
 use crate::plugin::{LocalProblem, LocalSolver, SolveError, SolveReport};
-
-#[inline]
-pub(super) fn ms(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
-}
 
 /// A solve kept for later (see `Engine::first_solve`): the problem as the solver got it, the
 /// layout it returned and its report.

@@ -5,13 +5,12 @@
 
 use std::time::Instant;
 
-use super::attempt::ms;
 use super::grid::tri_bbox;
 use super::kernel::unfold_start;
 use super::ops::OpGeometry;
 use super::separate::area_bound;
 use super::state::{Engine, NONE, orig_tri};
-use super::{DEGENERATE_AREA2, RejectReason};
+use super::{DEGENERATE_AREA2, RejectReason, ms};
 use crate::geometry::{
     Tri2, isometric_energy, signed_area2, triangles_overlap_beyond_noise as overlap,
 };
