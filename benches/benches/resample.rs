@@ -16,14 +16,11 @@ const CELL: u32 = 32;
 /// An input sheet of pseudo-random bytes (a fixed xorshift sequence, so runs compare).
 fn input(dir: &std::path::Path) -> TileStore {
     let mut s = TileStore::create(dir, SIZE, SIZE, PixelFormat::RGBA8).unwrap();
-    let mut x = 0x2545_F491_4F6C_DD1Du64;
+    let mut rng = scanatlas_core::rng::XorShift64(0x2545_F491_4F6C_DD1D);
     let mut row = vec![0u8; SIZE as usize * 4];
     for y in 0..SIZE {
         for b in row.iter_mut() {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            *b = x as u8;
+            *b = rng.next_u64() as u8;
         }
         s.write_row(y, 0, &row);
     }

@@ -7,7 +7,8 @@ use std::path::{Path, PathBuf};
 use scanatlas_core::io::{WriteOptions, write_model};
 use scanatlas_core::model::{ImageSource, Model};
 use scanatlas_core::plugin::{LocalProblem, LocalSolver, MergeScorer, Params, Registry};
-use scanatlas_core::synth::{self, Shape, SynthParams, XorShift64};
+use scanatlas_core::rng::XorShift64;
+use scanatlas_core::synth::{self, Shape, SynthParams};
 use scanatlas_core::texture::encode::{EncodeOptions, write_image};
 use scanatlas_core::topology::Topology;
 

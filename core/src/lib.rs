@@ -20,10 +20,12 @@ pub mod photo_atlas;
 pub mod pipeline;
 pub mod plugin;
 pub mod report;
+pub mod rng;
 pub mod synth;
 pub mod texture;
 pub mod topology;
 pub mod union_find;
+pub mod vec3;
 pub mod warnings;
 
 pub use index::{FaceId, MaterialId, NormalId, SheetId, UvId, VertexId};

@@ -9,6 +9,8 @@ use std::fs::{self, File, OpenOptions};
 use std::io::{self, Read, Write};
 use std::path::{Path, PathBuf};
 
+use crate::io::paths::parent_dir;
+
 /// Errors of locking, staging and committing an output set.
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
@@ -24,14 +26,6 @@ pub enum OutputError {
 
 fn file_err(path: &Path) -> impl FnOnce(io::Error) -> OutputError + '_ {
     move |source| OutputError::File { path: path.to_path_buf(), source }
-}
-
-/// The folder a file is in (`.` for a bare name).
-pub fn parent_dir(path: &Path) -> PathBuf {
-    match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    }
 }
 
 /// The file name of `path` as a string (empty when it has none).

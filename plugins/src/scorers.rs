@@ -6,6 +6,7 @@ use scanatlas_core::plugin::{
     MergeScorer, OpFeatures, ParamInfo, ParamValue, Params, PluginError, PluginInfo, PluginKind,
     Registry, Score, Veto, get_f64,
 };
+use scanatlas_core::rng::SplitMix64;
 
 /// Which terms of eq. 5 a scorer keeps.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -55,13 +56,10 @@ fn benefit(op: &OpFeatures) -> f64 {
     frac(op.seam_length_a, op.perimeter_a).max(frac(op.seam_length_b, op.perimeter_b))
 }
 
-/// SplitMix64: a seeded, platform-independent hash for the `random` ablation.
-fn splitmix(mut x: u64) -> u64 {
-    x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut z = x;
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
+/// A seeded, platform-independent hash for the `random` ablation: the first draw of a SplitMix64
+/// stream started at `x`.
+fn splitmix(x: u64) -> u64 {
+    SplitMix64::new(x).next_u64()
 }
 
 /// Turns the reference's cost (1/Appeal) into a finite appeal. A perfect match has cost 0 and the

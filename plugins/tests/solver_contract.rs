@@ -7,7 +7,7 @@ use scanatlas_core::geometry::{mean_isometric_energy, orientation, signed_area2}
 use scanatlas_core::plugin::{
     LocalProblem, LocalSolver, Params, Registry, SolveError, SolveReport,
 };
-use scanatlas_core::synth::XorShift64;
+use scanatlas_core::rng::XorShift64;
 
 type Tri2 = [[f64; 2]; 3];
 

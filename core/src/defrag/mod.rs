@@ -31,6 +31,7 @@ mod state;
 mod undo;
 mod unfold;
 mod untangle;
+mod verdict;
 mod zero_area;
 
 pub(crate) use grid::tri_bbox;
@@ -49,6 +50,12 @@ pub use zero_area::ZeroAreaReport;
 use crate::plugin::Veto;
 
 use crate::geometry::DEGENERATE_AREA2;
+
+/// Milliseconds since `t`, for the stage timings of the merge report.
+#[inline]
+fn ms(t: std::time::Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
 
 /// The parameters of the merge stage, with the paper's defaults (§5, digest §4.5).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]

@@ -2,7 +2,7 @@
 //! per UV vertex of every mergeable face (normalized by its sheet's size), frozen and UV-less
 //! faces untouched. Used to measure the merge stage with the independent metrics code.
 
-use crate::index::UvId;
+use crate::index::{NONE, UvId};
 use crate::model::Model;
 use crate::topology::Topology;
 
@@ -12,7 +12,7 @@ use crate::topology::Topology;
 pub fn merged_model(model: &Model, t: &Topology) -> Model {
     let mut out = model.clone();
     let mut uvs: Vec<[f64; 2]> = Vec::with_capacity(model.uvs.len());
-    let mut new_id = vec![u32::MAX; t.uv_pos.len()];
+    let mut new_id = vec![NONE; t.uv_pos.len()];
     for (f, face) in out.faces.iter_mut().enumerate() {
         let Some(old) = face.uv else { continue };
         if t.face_flags[f].is_isolated() {
@@ -28,7 +28,7 @@ pub fn merged_model(model: &Model, t: &Topology) -> Model {
         let mut ids = [UvId(0); 3];
         for (k, id) in ids.iter_mut().enumerate() {
             let v = t.corner_uv[3 * f + k].idx();
-            if new_id[v] == u32::MAX {
+            if new_id[v] == NONE {
                 let p = t.uv_pos[v];
                 new_id[v] = uvs.len() as u32;
                 uvs.push([p[0] / f64::from(w), p[1] / f64::from(h)]);

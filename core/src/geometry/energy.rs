@@ -244,13 +244,8 @@ mod tests {
 
     #[test]
     fn fused_rotation_and_energy_match_the_separate_ones() {
-        let mut x = 0x9E37_79B9_7F4A_7C15u64;
-        let mut next = || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x >> 11) as f64 / (1u64 << 53) as f64 * 4.0 - 2.0
-        };
+        let mut rng = crate::rng::XorShift64(0x9E37_79B9_7F4A_7C15);
+        let mut next = || rng.unit() * 4.0 - 2.0;
         for i in 0..10_000 {
             let scale = [1.0, 1e-3, 1e3, 1e-160, 1e100][i % 5];
             let j = [[next() * scale, next() * scale], [next() * scale, next() * scale]];

@@ -160,7 +160,7 @@ pub fn closest_rotation(m: Mat2) -> Mat2 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::synth::XorShift64;
+    use crate::rng::XorShift64;
 
     fn close(a: f64, b: f64, tol: f64) -> bool {
         (a - b).abs() <= tol * (1.0 + a.abs().max(b.abs()))

@@ -82,7 +82,7 @@ pub struct GltfScene {
 /// The files a glTF document refers to by URI (buffers and images, data URIs aside), resolved
 /// against its folder.
 pub fn external_files(scene: &GltfScene) -> Vec<std::path::PathBuf> {
-    let dir = source::base_dir(&scene.source);
+    let dir = crate::io::paths::parent_dir(&scene.source);
     let mut out = vec![scene.source.clone()];
     for list in ["buffers", "images"] {
         let Some(items) = scene.document.get(list).and_then(|v| v.as_array()) else { continue };

@@ -75,14 +75,6 @@ pub fn check_confined(referrer: &Path, base: &Path, target: &Path) -> Result<(),
         .map_err(|msg| IoError::Confined { path: referrer.to_path_buf(), msg })
 }
 
-/// The folder of a model file (`.` when the path has none).
-pub fn model_dir(path: &Path) -> PathBuf {
-    match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    }
-}
-
 /// Options shared by the writers.
 #[derive(Clone, Debug, Default)]
 pub struct WriteOptions {
@@ -167,7 +159,7 @@ pub fn read_model(path: &Path) -> Result<Model, IoError> {
         ModelFormat::Ply => ply::read(path)?,
     };
     model.validate_indices().map_err(|msg| IoError::invalid(path, msg))?;
-    let dir = model_dir(path);
+    let dir = paths::parent_dir(path);
     for sheet in &model.sheets {
         if let crate::model::ImageSource::File(p) = &sheet.image {
             check_confined(path, &dir, p)?;

@@ -1,9 +1,18 @@
-//! Path helpers shared by the model writers: lexical normalization, and how a texture file is
-//! referenced from a written model (relative to the output folder when they share a folder below
-//! the root, absolute otherwise).
+//! Path helpers shared by the readers, the writers and the output set: the folder a file is in,
+//! lexical normalization, and how a texture file is referenced from a written model (relative to
+//! the output folder when they share a folder below the root, absolute otherwise).
 
 use std::path::{Component, Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
+
+/// The folder a file is in: what its relative references resolve against and where files
+/// written beside it go (`.` for a bare file name, whose `parent()` is empty).
+pub fn parent_dir(path: &Path) -> PathBuf {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    }
+}
 
 /// Whether references must stay inside their model's folder (see [`check_confined`]).
 static CONFINED: AtomicBool = AtomicBool::new(false);

@@ -10,6 +10,7 @@
 //! corners keep their fan.
 
 use crate::model::Face;
+use crate::vec3::{cross, dot};
 
 /// Polygons with more corners keep their fan: ear clipping costs up to the cube of the corner
 /// count, and a hostile file could hold a polygon of millions of corners.
@@ -116,14 +117,6 @@ fn project(positions: &[[f64; 3]], s: &mut Scratch) -> bool {
         s.plane.push([dot(q, ux), dot(q, uy)]);
     }
     true
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// Twice the signed area of the 2D triangle `a b c` (positive counter-clockwise).

@@ -4,6 +4,7 @@
 use super::CRACK_TOL;
 use super::stats::{DEGENERATE, FINITE, Prep};
 use super::weld::Buckets;
+use crate::index::NONE;
 
 pub(crate) use crate::union_find::UnionFind;
 
@@ -226,13 +227,13 @@ fn nan_max(a: f64, b: f64) -> f64 {
 /// the record is the OBJ `vt` index or the glTF vertex).
 pub(crate) fn index_charts(prep: &Prep<'_>) -> u64 {
     let model = prep.model;
-    let mut first = vec![u32::MAX; model.uvs.len()];
+    let mut first = vec![NONE; model.uvs.len()];
     let mut uf = UnionFind::new(model.faces.len());
     for (f, face) in model.faces.iter().enumerate() {
         if let Some(t) = face.uv {
             for t in t {
                 let slot = &mut first[t.idx()];
-                if *slot == u32::MAX {
+                if *slot == NONE {
                     *slot = f as u32;
                 } else {
                     let g = *slot as usize;

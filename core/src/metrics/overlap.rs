@@ -12,6 +12,7 @@ use rayon::prelude::*;
 
 use super::stats::{DEGENERATE, FINITE, Prep};
 use super::{OVERLAP_PAIR_CAP, RASTER_EPS};
+use crate::index::NONE;
 
 /// Texels per tile (4 MiB of owners, 1 MiB of coverage counts).
 const TILE_TEXELS: usize = 1 << 20;
@@ -220,7 +221,7 @@ fn tile_overlaps(
         return (0, Vec::new());
     }
     // The first face covering each texel, and how many faces cover it (saturating).
-    let mut owner = vec![u32::MAX; n];
+    let mut owner = vec![NONE; n];
     let mut cov = vec![0u8; n];
     // (texel << 32 | face) for the 2nd..16th faces of each texel.
     let mut extra: Vec<u64> = Vec::new();

@@ -173,13 +173,7 @@ fn face_figures(prep: &Prep<'_>, f: usize, area: &mut f64, flags: &mut u8, p: &m
     p.degenerate += degenerate as u64;
 
     let q = prep.model.face_positions(crate::FaceId::from_usize(f));
-    let (e1, e2) = (sub3(q[1], q[0]), sub3(q[2], q[0]));
-    let c = [
-        e1[1] * e2[2] - e1[2] * e2[1],
-        e1[2] * e2[0] - e1[0] * e2[2],
-        e1[0] * e2[1] - e1[1] * e2[0],
-    ];
-    let a3 = 0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+    let a3 = crate::vec3::triangle_area(q);
     p.area_3d += a3;
     p.zero_area_3d += (a3 == 0.0) as u64;
 
@@ -193,9 +187,4 @@ fn face_figures(prep: &Prep<'_>, f: usize, area: &mut f64, flags: &mut u8, p: &m
         p.nonfinite_wedges += w.iter().any(|c| !c.is_finite()) as u64;
     }
     p.oob_faces += oob_face as u64;
-}
-
-#[inline]
-fn sub3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }

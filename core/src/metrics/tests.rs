@@ -361,23 +361,10 @@ fn solidity_is_none_without_border() {
 // Brute-force cross-check on a random model large enough to span many parallel chunks.
 // ------------------------------------------------------------------------------------------------
 
-/// A small deterministic generator (64-bit LCG, high bits).
-struct Lcg(u64);
-
-impl Lcg {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        self.0 >> 33
-    }
-    fn below(&mut self, n: u64) -> u64 {
-        self.next() % n
-    }
-}
-
 /// A grid of `n × n` quads cut into rectangular charts of random size, each placed at a random
 /// spot of a 512×256 sheet (so charts overlap), with a few faces without UV and a few folded.
 fn random_model(n: usize, seed: u64) -> Fixture {
-    let mut rng = Lcg(seed);
+    let mut rng = crate::rng::SplitMix64::new(seed);
     let mut fx = Fixture::one_sheet(512, 256);
     let idx = |x: usize, y: usize| (y * (n + 1) + x) as u32;
     for y in 0..=n {
@@ -390,7 +377,7 @@ fn random_model(n: usize, seed: u64) -> Fixture {
     let mut c = 0;
     let mut x = 0;
     while x < n {
-        let w = 1 + rng.below(6) as usize;
+        let w = 1 + rng.below(6);
         for cc in col_chart.iter_mut().skip(x).take(w) {
             *cc = c;
         }
@@ -401,7 +388,7 @@ fn random_model(n: usize, seed: u64) -> Fixture {
     let mut row_chart = vec![0usize; n];
     let (mut r, mut y) = (0, 0);
     while y < n {
-        let h = 1 + rng.below(4) as usize;
+        let h = 1 + rng.below(4);
         for rc in row_chart.iter_mut().skip(y).take(h) {
             *rc = r;
         }

@@ -25,13 +25,13 @@ use crate::plugin::PackerError;
 /// What the packing stage reads: the final charts in texel space, and the original UVs.
 #[derive(Clone, Copy, Debug)]
 pub struct LayoutInput<'a> {
-    /// UV vertex of each corner `3·f + k`; `u32::MAX` for faces without UVs.
+    /// UV vertex of each corner `3·f + k`; `NONE` for faces without UVs.
     pub corner_vert: &'a [u32],
     /// Current texel-space position of each UV vertex (after merging).
     pub vert_uv: &'a [[f64; 2]],
     /// Per corner: the ORIGINAL texel-space UV, on input sheet `face_sheet[f]`.
     pub orig_uv: &'a [[f64; 2]],
-    /// Chart of each face, dense `0..n_charts`; `u32::MAX` = no UV (left out of packing).
+    /// Chart of each face, dense `0..n_charts`; `NONE` = no UV (left out of packing).
     pub face_chart: &'a [u32],
     /// Input sheet of each face.
     pub face_sheet: &'a [u32],
@@ -150,7 +150,7 @@ pub struct PackedLayout {
     /// Output texel-space position of each UV vertex, in its output sheet. Vertices no packed
     /// face uses keep their input value.
     pub vert_uv: Vec<[f64; 2]>,
-    /// Output sheet of each face (`u32::MAX` for faces left out).
+    /// Output sheet of each face (`NONE` for faces left out).
     pub face_sheet: Vec<u32>,
     /// Trimmed output sheet sizes.
     pub sheet_sizes: Vec<(u32, u32)>,

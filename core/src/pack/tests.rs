@@ -6,6 +6,7 @@ use proptest::prelude::*;
 
 use super::footprint::rasterize;
 use super::*;
+use crate::index::NONE;
 use crate::plugin::{
     PackItem, PackOutput, Packer, PackerError, Placement, fits_sheet, oversized_sheet,
 };
@@ -147,8 +148,8 @@ impl MapBits for Vec<[f64; 2]> {
 fn check_layout(m: &Mesh, out: &PackedLayout, padding: u32) {
     for f in 0..m.face_chart.len() {
         let c = m.face_chart[f];
-        if c == u32::MAX {
-            assert_eq!(out.face_sheet[f], u32::MAX);
+        if c == NONE {
+            assert_eq!(out.face_sheet[f], NONE);
             continue;
         }
         let (w, h) = out.sheet_sizes[out.face_sheet[f] as usize];
@@ -168,7 +169,7 @@ fn check_layout(m: &Mesh, out: &PackedLayout, padding: u32) {
     }
     // Packing moves every chart rigidly: each face keeps its edge lengths.
     for f in 0..m.face_chart.len() {
-        if m.face_chart[f] == u32::MAX {
+        if m.face_chart[f] == NONE {
             continue;
         }
         for (a, b) in [(0, 1), (1, 2), (2, 0)] {
@@ -313,9 +314,9 @@ fn faces_without_uvs_are_left_out_and_bad_input_refused() {
     let mut m = Mesh::default();
     m.chart(3, 3, [0.5, 0.5], |_| 0, |p| p);
     m.chart(3, 3, [10.5, 0.5], |_| 0, |p| p);
-    m.face_chart[0] = u32::MAX;
+    m.face_chart[0] = NONE;
     let out = pack_layout(&m.input(&SHEETS), &Shelf, &PackOptions::default()).unwrap();
-    assert_eq!(out.face_sheet[0], u32::MAX);
+    assert_eq!(out.face_sheet[0], NONE);
     check_layout(&m, &out, 4);
     let mut bad = m.corner_vert.clone();
     bad[3 * 20] = 0; // A corner of chart 1 pointing at a vertex of chart 0.

@@ -4,6 +4,8 @@
 
 use std::path::PathBuf;
 
+use crate::vec3::{dot, normalize};
+
 /// Lens distortion of the COLMAP camera models this crate reads.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub enum Distortion {
@@ -83,24 +85,6 @@ pub struct Rig {
     pub cameras: Vec<PhotoCamera>,
     /// Where it was read from.
     pub source: PathBuf,
-}
-
-#[inline]
-pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-#[inline]
-pub(crate) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-#[inline]
-pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-#[inline]
-pub(crate) fn normalize(v: [f64; 3]) -> [f64; 3] {
-    let n = dot(v, v).sqrt();
-    if n > 0.0 { [v[0] / n, v[1] / n, v[2] / n] } else { [0.0; 3] }
 }
 
 /// Rotation matrix of a unit quaternion `(w, x, y, z)` (normalized here, COLMAP's order).

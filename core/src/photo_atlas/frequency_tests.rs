@@ -9,7 +9,7 @@ use super::frequency::{
 use super::partition::{NONE, face_adjacency};
 use super::pyramid::{self, Plane, level_count, level_size, reduce_store, to_level};
 use super::split::{SplitInput, split_charts};
-use crate::synth::XorShift64;
+use crate::rng::XorShift64;
 use crate::texture::{PixelFormat, TileStore};
 
 #[test]

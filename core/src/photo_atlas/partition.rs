@@ -16,8 +16,9 @@
 use std::cmp::Ordering;
 use std::collections::{BinaryHeap, HashMap};
 
-use super::cameras::{PhotoCamera, dot, normalize, sub};
+use super::cameras::PhotoCamera;
 use super::visibility::{Visibility, face_normal_area};
+use crate::vec3::{dot, normalize, sub};
 
 pub use crate::index::NONE;
 

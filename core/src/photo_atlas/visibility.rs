@@ -5,8 +5,10 @@
 
 use rayon::prelude::*;
 
-use super::cameras::{PhotoCamera, cross, dot, normalize, sub};
+use super::cameras::PhotoCamera;
+use crate::index::NONE;
 use crate::texture::raster::{PixelRect, rasterize_triangle};
+use crate::vec3::{cross, dot, normalize, sub};
 
 /// Options of [`compute`].
 #[derive(Clone, Copy, Debug, serde::Serialize)]
@@ -100,7 +102,7 @@ fn visible_faces(
     }
     let n = (bw * bh) as usize;
     let mut depth = vec![f32::INFINITY; n];
-    let mut ids = vec![u32::MAX; n];
+    let mut ids = vec![NONE; n];
     let full = PixelRect::new(0, 0, bw, bh);
     // Each face "renders" its covered pixel centres, or the pixel of its centroid when it covers
     // none (a sub-pixel face), so every candidate gets at least one depth test.
@@ -133,7 +135,7 @@ fn visible_faces(
     let collect = |ids: &[u32], found: &mut [bool]| {
         let mut new = 0u64;
         for &k in ids {
-            if k != u32::MAX && !found[k as usize] {
+            if k != NONE && !found[k as usize] {
                 found[k as usize] = true;
                 new += 1;
             }
@@ -147,7 +149,7 @@ fn visible_faces(
     let eps = opts.depth_eps as f32;
     let mut zpass = vec![f32::INFINITY; n];
     for _ in 1..opts.max_passes {
-        ids.fill(u32::MAX);
+        ids.fill(NONE);
         zpass.fill(f32::INFINITY);
         let mut rendered = 0;
         for (k, c) in cands.iter().enumerate() {

@@ -4,12 +4,14 @@
 
 use super::PipelineError;
 use crate::defrag::{MergedLayout, UntangleOptions, UntangleReport, untangle_charts};
+use crate::index::NONE;
 use crate::model::Model;
 use crate::pack::{LayoutInput, PackOptions, PackedLayout, RigidSplitReport, anchor_faces};
 use crate::plugin::LocalSolver;
 use crate::topology::Topology;
+use crate::vec3::triangle_area;
 
-/// The chart of every face for packing (`u32::MAX` for faces left out), with what packing
+/// The chart of every face for packing (`NONE` for faces left out), with what packing
 /// needs beside it.
 pub(super) struct PackingCharts {
     pub face_chart: Vec<u32>,
@@ -26,7 +28,8 @@ impl PackingCharts {
     /// The merged layout's charts; faces without usable UVs or without a sheet are left out.
     pub fn new(model: &Model, topo: &Topology, layout: &MergedLayout) -> Self {
         let (face_chart, unpacked) = packing_charts(topo, layout, model.sheets.len());
-        let face_area_3d = model.face_ids().map(|f| area_3d(model, f)).collect();
+        let face_area_3d =
+            model.face_ids().map(|f| triangle_area(model.face_positions(f))).collect();
         Self { face_chart, n: layout.n_charts, face_area_3d, unpacked, corner_vert: Vec::new() }
     }
 
@@ -98,7 +101,7 @@ impl PackingCharts {
     }
 }
 
-/// The chart of each face for packing (`u32::MAX` for faces without usable UVs or without a
+/// The chart of each face for packing (`NONE` for faces without usable UVs or without a
 /// sheet, which packing leaves out) and the number of such faces.
 fn packing_charts(t: &Topology, layout: &MergedLayout, n_sheets: usize) -> (Vec<u32>, u64) {
     let mut unpacked = 0;
@@ -108,7 +111,7 @@ fn packing_charts(t: &Topology, layout: &MergedLayout, n_sheets: usize) -> (Vec<
                 layout.face_chart[f]
             } else {
                 unpacked += 1;
-                u32::MAX
+                NONE
             }
         })
         .collect();
@@ -154,14 +157,4 @@ pub(super) fn layout_input<'a>(
         n_charts,
         input_sheet_sizes,
     }
-}
-
-/// The 3D area of a face (relative to its first corner, so georeferenced offsets cost no
-/// precision).
-fn area_3d(model: &Model, f: crate::index::FaceId) -> f64 {
-    let [a, b, c] = model.face_positions(f);
-    let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-    let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-    let n = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
-    0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt()
 }

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 
 use super::PipelineError;
 use crate::atomic::is_protected;
+use crate::io::paths::parent_dir;
 use crate::io::{Relocation, WriteOptions};
 use crate::model::{Model, ModelFormat};
 use crate::output_set::{self, OutputLock, Staging};
@@ -106,8 +107,8 @@ fn planned_outputs(output: &Path) -> Vec<PathBuf> {
 /// Whether `path` may be the name of a sheet of `output` (`<stem>_<k>.<ext>`, or
 /// `<stem>_sheet<k>.<ext>` for extracted embedded images) in the output's folder.
 fn is_sheet_name(output: &Path, path: &Path) -> bool {
-    let dir = output_set::parent_dir(output);
-    let same_dir = match (dir.canonicalize(), output_set::parent_dir(path).canonicalize()) {
+    let dir = parent_dir(output);
+    let same_dir = match (dir.canonicalize(), parent_dir(path).canonicalize()) {
         (Ok(a), Ok(b)) => a == b,
         _ => false,
     };
@@ -169,10 +170,7 @@ impl RunContext {
             protect.extend(model_files(model));
             check_against_inputs(&output, paths.report, &protect)?;
         }
-        let out_dir = output_set::parent_dir(&output);
-        super::create_dir(&out_dir)?;
-        let work_dir = paths.work_dir.map_or_else(|| out_dir.clone(), Path::to_path_buf);
-        super::create_dir(&work_dir)?;
+        let (out_dir, work_dir) = create_run_dirs(&output, paths.work_dir)?;
         let lock = OutputLock::acquire(&output)?;
         output_set::clean_stale(&output)?;
         let staging = Staging::create(&output)?;
@@ -257,6 +255,19 @@ impl RunContext {
         self.checkpoint()?;
         Ok(self.staging.commit(&self.protect)?)
     }
+}
+
+/// Creates the output's folder and the work folder of the temporary tile files (`work_dir`, or
+/// the output's folder when `None`), and returns both: the one set-up every writing run shares.
+pub(crate) fn create_run_dirs(
+    output: &Path,
+    work_dir: Option<&Path>,
+) -> Result<(PathBuf, PathBuf), PipelineError> {
+    let out_dir = parent_dir(output);
+    super::create_dir(&out_dir)?;
+    let work_dir = work_dir.map_or_else(|| out_dir.clone(), Path::to_path_buf);
+    super::create_dir(&work_dir)?;
+    Ok((out_dir, work_dir))
 }
 
 /// Bytes of the tile files of a sheet of `w × h` pixels of `bytes_per_pixel` bytes.

@@ -7,6 +7,7 @@ use super::PipelineError;
 use super::context::RunContext;
 use super::decode_ahead::DecodeAhead;
 use super::defrag::DefragConfig;
+use crate::index::NONE;
 use crate::index::{MaterialId, UvId};
 use crate::model::Model;
 use crate::pack::PackedLayout;
@@ -39,7 +40,7 @@ pub(super) fn synthesize(
     }
     let mut mappings = Vec::with_capacity(face_chart.len());
     for (f, &chart) in face_chart.iter().enumerate() {
-        if chart == u32::MAX {
+        if chart == NONE {
             continue;
         }
         let corner = |k: usize| t.corner_uv[3 * f + k].idx();
@@ -101,11 +102,11 @@ pub(super) fn packed_model(
     let mut out = model.clone();
     super::set_atlas_sheets(&mut out, sheet_paths, &packed.sheet_sizes);
     let mut uvs: Vec<[f64; 2]> = Vec::with_capacity(t.uv_pos.len());
-    let mut new_id = vec![u32::MAX; t.uv_pos.len()];
+    let mut new_id = vec![NONE; t.uv_pos.len()];
     let mut zero_uv: Option<UvId> = None;
     for (f, face) in out.faces.iter_mut().enumerate() {
         let chart = face_chart[f];
-        if chart == u32::MAX || out.sheets.is_empty() {
+        if chart == NONE || out.sheets.is_empty() {
             // Left out of packing: faces without UVs keep none; the others get UV (0, 0) on
             // sheet 0, so every output UV stays inside the unit square.
             match face.uv {
@@ -129,7 +130,7 @@ pub(super) fn packed_model(
         let mut ids = [UvId(0); 3];
         for (k, id) in ids.iter_mut().enumerate() {
             let v = t.corner_uv[3 * f + k].idx();
-            if new_id[v] == u32::MAX {
+            if new_id[v] == NONE {
                 new_id[v] = uvs.len() as u32;
                 uvs.push(texel_to_uv(packed.vert_uv[v], w, h));
             }

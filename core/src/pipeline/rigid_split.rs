@@ -18,6 +18,7 @@
 
 use super::PipelineError;
 use super::charts::layout_input;
+use crate::index::NONE;
 use crate::pack::{PackOptions, RigidSplitReport, rigid_groups_beyond_anchor};
 use crate::topology::Topology;
 
@@ -38,7 +39,7 @@ pub(super) fn split_rigid_groups(
     let total_area: f64 = face_chart
         .iter()
         .zip(face_area_3d)
-        .filter(|&(&c, a)| c != u32::MAX && a.is_finite())
+        .filter(|&(&c, a)| c != NONE && a.is_finite())
         .map(|(_, a)| a)
         .sum();
     let mut report = RigidSplitReport { candidates: groups.len(), ..Default::default() };
@@ -161,7 +162,7 @@ fn parts_to_split(
 ) -> Vec<Vec<u32>> {
     let mut chart_faces: Vec<Vec<u32>> = Vec::new();
     for (f, &c) in face_chart.iter().enumerate() {
-        if c != u32::MAX {
+        if c != NONE {
             if chart_faces.len() <= c as usize {
                 chart_faces.resize(c as usize + 1, Vec::new());
             }

@@ -6,7 +6,7 @@
 use rayon::prelude::*;
 
 use super::compare::{FaceClass, Side, area_3d};
-use crate::synth::rng::SplitMix64;
+use crate::rng::SplitMix64;
 use crate::texture::TileStore;
 
 /// Points per parallel task, a constant so the sums do not depend on the thread count.

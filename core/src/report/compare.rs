@@ -140,11 +140,7 @@ fn bbox_diagonal(model: &Model) -> f64 {
 
 /// The 3-D area of face `f`.
 pub fn area_3d(model: &Model, f: usize) -> f64 {
-    let [a, b, c] = model.face_positions(FaceId::from_usize(f));
-    let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-    let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-    let n = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
-    0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt()
+    crate::vec3::triangle_area(model.face_positions(FaceId::from_usize(f)))
 }
 
 /// Per-face figures of one face, folded into the [`Comparison`] sums.

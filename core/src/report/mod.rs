@@ -113,10 +113,7 @@ pub fn write_report(
     input: &ReportInput,
     opts: &ReportOptions,
 ) -> Result<ReportSummary, ReportError> {
-    let parent = match dir.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
+    let parent = crate::io::paths::parent_dir(dir);
     let io = |path: &Path, e: std::io::Error| ReportError::Write {
         path: path.into(),
         msg: e.to_string(),

@@ -8,12 +8,13 @@ use std::path::Path;
 
 use super::ReportError;
 use super::compare::{Comparison, FaceClass, Side};
-use crate::synth::rng::mix64;
+use crate::index::NONE;
+use crate::rng::mix64;
 use crate::texture::raster::{PixelRect, TriangleRaster};
 use crate::texture::{PixelFormat, SampleType, TileStore};
 
 /// No face on this preview pixel.
-const EMPTY: u32 = u32::MAX;
+const EMPTY: u32 = NONE;
 const BACKGROUND: [u8; 3] = [250, 250, 250];
 const SEAM: [u8; 3] = [20, 20, 20];
 const POINT: [u8; 3] = [230, 0, 200];

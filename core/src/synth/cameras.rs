@@ -10,7 +10,8 @@
 use rayon::prelude::*;
 
 use super::mesh::{Mesh, tri_normal};
-use super::rng::{SplitMix64, hash3, signed_f64, value_noise};
+use crate::rng::{SplitMix64, hash3, signed_f64, value_noise};
+use crate::vec3::{cross, dot, normalize, sub};
 
 /// A pinhole camera. Image-plane coordinates are `focal · (x/z, y/z)` in camera axes, so the
 /// texel density of a surface seen by it falls off as `focal / depth`.
@@ -21,27 +22,6 @@ pub struct Camera {
     pub up: [f64; 3],
     pub forward: [f64; 3],
     pub focal: f64,
-}
-
-#[inline]
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-#[inline]
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-#[inline]
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-
-#[inline]
-fn normalize(v: [f64; 3]) -> [f64; 3] {
-    let n = dot(v, v).sqrt();
-    [v[0] / n, v[1] / n, v[2] / n]
 }
 
 impl Camera {

@@ -24,7 +24,7 @@
 
 use std::sync::OnceLock;
 
-use super::rng::SplitMix64;
+use crate::rng::SplitMix64;
 
 /// One plane wave `sin(k · p + phase)`.
 #[derive(Clone, Copy, Debug)]

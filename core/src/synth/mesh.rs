@@ -9,7 +9,8 @@
 use rayon::prelude::*;
 
 use super::Shape;
-use super::rng::{fbm, hash3, signed_f64};
+use crate::rng::{fbm, hash3, signed_f64};
+use crate::vec3::{cross, norm, normalize, sub};
 
 pub use crate::index::NONE;
 
@@ -80,12 +81,6 @@ fn scale3(s: f64) -> [[f64; 3]; 3] {
 
 fn identity() -> Xf {
     Xf { m: scale3(1.0), t: [0.0; 3] }
-}
-
-#[inline]
-fn normalize(v: [f64; 3]) -> [f64; 3] {
-    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    [v[0] / n, v[1] / n, v[2] / n]
 }
 
 /// Appends the two triangles of every quad of an `nu × nv` grid, each quad split along a random
@@ -290,14 +285,8 @@ pub fn face_adjacency(tris: &[[u32; 3]], vertex_count: usize) -> Vec<u32> {
 /// Unit normal of a triangle (zero for a degenerate one) and its area.
 #[inline]
 pub fn tri_normal(p: [[f64; 3]; 3]) -> ([f64; 3], f64) {
-    let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
-    let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
-    let c = [
-        e1[1] * e2[2] - e1[2] * e2[1],
-        e1[2] * e2[0] - e1[0] * e2[2],
-        e1[0] * e2[1] - e1[1] * e2[0],
-    ];
-    let n = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+    let c = cross(sub(p[1], p[0]), sub(p[2], p[0]));
+    let n = norm(c);
     if n > 0.0 { ([c[0] / n, c[1] / n, c[2] / n], 0.5 * n) } else { ([0.0; 3], 0.0) }
 }
 

@@ -20,8 +20,6 @@ mod pack;
 mod paint;
 pub mod rig;
 pub mod rig_score;
-pub(crate) mod rng;
-pub use rng::XorShift64;
 #[cfg(test)]
 mod tests;
 

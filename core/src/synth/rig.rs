@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 
 use super::color::{linear_to_srgb8, patchy_color, srgb8_to_linear, true_color};
 use super::{Shape, cameras, mesh};
+use crate::index::NONE;
 use crate::index::VertexId;
 use crate::model::{Face, Model};
 use crate::photo_atlas::cameras::{Distortion, Intrinsics, PhotoCamera, Rig};
@@ -74,7 +75,7 @@ fn err(e: impl std::fmt::Display) -> super::SynthError {
 
 /// Pseudo-random number in `[-1, 1]` from a seed and two indices.
 fn rnd(seed: u64, a: u64, b: u64) -> f64 {
-    super::rng::signed_f64(super::rng::hash3(seed, a, b))
+    crate::rng::signed_f64(crate::rng::hash3(seed, a, b))
 }
 
 /// The rig's cameras: [`cameras::place`]'s regular cameras in the OpenCV convention.
@@ -127,16 +128,14 @@ pub fn render(
     let mut store = TileStore::create(work, w, h, PixelFormat::RGB8)?;
     let n = (w * h) as usize;
     let mut depth = vec![f64::INFINITY; n];
-    let mut hit: Vec<(u32, [f64; 3])> = vec![(u32::MAX, [0.0; 3]); n];
+    let mut hit: Vec<(u32, [f64; 3])> = vec![(NONE, [0.0; 3]); n];
     let full = PixelRect::new(0, 0, w, h);
     let centre = cam.centre();
     for (f, t) in m.tris.iter().enumerate() {
         let p = t.map(|v| m.positions[v as usize]);
         let (nrm, _) = mesh::tri_normal(p);
         let cen = [0, 1, 2].map(|k| (p[0][k] + p[1][k] + p[2][k]) / 3.0);
-        if crate::photo_atlas::cameras::dot(nrm, crate::photo_atlas::cameras::sub(centre, cen))
-            <= 0.0
-        {
+        if crate::vec3::dot(nrm, crate::vec3::sub(centre, cen)) <= 0.0 {
             continue;
         }
         let mut tri = [[0.0; 2]; 3];
@@ -169,7 +168,7 @@ pub fn render(
     for j in 0..h {
         for i in 0..w {
             let (f, b) = hit[(j * w + i) as usize];
-            if f == u32::MAX {
+            if f == NONE {
                 continue;
             }
             let t = m.tris[f as usize];

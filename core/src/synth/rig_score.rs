@@ -12,8 +12,9 @@ use super::rig::{RigParams, read_params};
 use crate::metrics::seam::{chart_border_seams, seam_jump_against};
 use crate::metrics::{DEGEN_AREA_TEXELS, StatsOptions, atlas_stats, edge_chart_labels};
 use crate::model::Model;
-use crate::photo_atlas::cameras::{PhotoCamera, cross, dot, sub};
+use crate::photo_atlas::cameras::PhotoCamera;
 use crate::texture::TileStore;
+use crate::vec3::{cross, dot, sub};
 
 /// Errors of [`score_files`].
 #[derive(Debug, thiserror::Error)]

@@ -2,7 +2,7 @@
 //! match the ground truth, chart counts and the topology of each shape.
 
 use super::*;
-use crate::index::FaceId;
+use crate::index::{FaceId, NONE};
 use crate::texture::coords::pixel_of_texel;
 use crate::texture::raster::{PixelRect, rasterize_triangle};
 
@@ -80,10 +80,10 @@ fn every_face_has_uvs_in_the_unit_square_and_a_sheet_and_uvs_are_per_chart() {
             }
         }
         // A UV vertex belongs to one position; positions on chart borders have several UVs.
-        let mut owner = vec![u32::MAX; m.uvs.len()];
+        let mut owner = vec![NONE; m.uvs.len()];
         for face in &m.faces {
             for (v, t) in face.v.iter().zip(face.uv.unwrap()) {
-                assert!(owner[t.idx()] == u32::MAX || owner[t.idx()] == v.0);
+                assert!(owner[t.idx()] == NONE || owner[t.idx()] == v.0);
                 owner[t.idx()] = v.0;
             }
         }

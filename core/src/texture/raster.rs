@@ -265,13 +265,8 @@ mod tests {
     /// nearly horizontal and nearly vertical edges, where rounding decides the ends.
     #[test]
     fn spans_are_exactly_the_covered_pixels() {
-        let mut x = 0x9E37_79B9_7F4A_7C15u64;
-        let mut next = || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = crate::rng::XorShift64(0x9E37_79B9_7F4A_7C15);
+        let mut next = || rng.unit();
         let clip = PixelRect::new(0, 0, 40, 40);
         for n in 0..2000 {
             let mut tri = [[0.0; 2]; 3];

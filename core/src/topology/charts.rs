@@ -3,9 +3,11 @@
 
 use super::edges::Adjacency;
 use super::ids::{ChartId, HalfEdgeId, PosId, UvVertId};
-use super::texel::{FrozenReasons, area_3d, rebase_shift, signed_area2};
+use super::texel::{FrozenReasons, rebase_shift, signed_area2};
+use crate::index::NONE;
 use crate::index::SheetId;
 use crate::union_find::UnionFind;
+use crate::vec3::triangle_area;
 
 /// A chart and the quantities the scorer reads from it (reference `FaceGroup::UpdateCache`).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -141,7 +143,7 @@ pub(crate) fn split_uv_vertices(
     corner_texel: &[[f64; 2]],
 ) -> UvVertices {
     let nc = corner_weld.len();
-    let mut head = vec![u32::MAX; n_weld];
+    let mut head = vec![NONE; n_weld];
     // `next` chains the vertices made from one weld (almost always a single one).
     let mut next: Vec<u32> = Vec::with_capacity(n_weld);
     let mut out = UvVertices {
@@ -153,10 +155,10 @@ pub(crate) fn split_uv_vertices(
     for c in 0..nc {
         let chart = face_chart[c / 3];
         let w = corner_weld[c];
-        let mut found = u32::MAX;
-        if w != u32::MAX {
+        let mut found = NONE;
+        if w != NONE {
             let mut u = head[w as usize];
-            while u != u32::MAX {
+            while u != NONE {
                 if out.uv_chart[u as usize] == chart {
                     found = u;
                     break;
@@ -164,16 +166,16 @@ pub(crate) fn split_uv_vertices(
                 u = next[u as usize];
             }
         }
-        if found == u32::MAX {
+        if found == NONE {
             found = out.uv_pos.len() as u32;
             out.uv_pos.push(corner_texel[c]);
             out.uv_vpos.push(corner_pos[c]);
             out.uv_chart.push(chart);
-            if w != u32::MAX {
+            if w != NONE {
                 next.push(head[w as usize]);
                 head[w as usize] = found;
             } else {
-                next.push(u32::MAX);
+                next.push(NONE);
             }
         }
         out.corner_uv[c] = UvVertId(found);
@@ -260,10 +262,10 @@ pub(crate) fn chart_caches(
     for f in 0..nf {
         let ch = &mut charts[face_chart[f].idx()];
         ch.frozen = face_flags[f].is_isolated();
-        ch.sheet = (face_sheet[f] != u32::MAX).then_some(SheetId(face_sheet[f]));
+        ch.sheet = (face_sheet[f] != NONE).then_some(SheetId(face_sheet[f]));
         ch.n_faces += 1;
         let v = face_vertices[f];
-        ch.area_3d += area_3d([positions[v[0]], positions[v[1]], positions[v[2]]]);
+        ch.area_3d += triangle_area([positions[v[0]], positions[v[1]], positions[v[2]]]);
         if face_flags[f].has_usable_uv() {
             let t = |k: usize| uv.uv_pos[uv.corner_uv[3 * f + k].idx()];
             ch.area_signed += 0.5 * signed_area2(t(0), t(1), t(2));

@@ -3,7 +3,8 @@
 //! zero 3D area, non-manifold edge).
 
 use super::ids::{EdgeId, HalfEdgeId, PosId};
-use super::texel::{FrozenReasons, area_3d};
+use super::texel::FrozenReasons;
+use crate::vec3::triangle_area;
 
 /// A mesh edge: an unordered pair of welded positions and the face sides lying on it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -165,7 +166,7 @@ pub(crate) fn flag_3d(
         if p[0] == p[1] || p[1] == p[2] || p[0] == p[2] {
             flags |= FrozenReasons::DEGENERATE;
         }
-        let area = area_3d([positions[v[0]], positions[v[1]], positions[v[2]]]);
+        let area = triangle_area([positions[v[0]], positions[v[1]], positions[v[2]]]);
         // `!(area > 0)` also freezes faces with NaN positions.
         if area.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             flags |= FrozenReasons::ZERO_AREA_3D;

@@ -15,7 +15,7 @@ macro_rules! define_topo_id {
 
         impl $name {
             /// The reserved "no such element" value.
-            pub const NONE: Self = Self(u32::MAX);
+            pub const NONE: Self = Self(crate::index::NONE);
 
             /// The id as a `usize`, for slicing.
             #[inline]

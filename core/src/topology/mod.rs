@@ -143,7 +143,7 @@ pub struct Topology {
     pub face_chart: Vec<ChartId>,
     /// Why each face is frozen (empty set for mergeable faces).
     pub face_flags: Vec<FrozenReasons>,
-    /// Sheet of each face (`u32::MAX` for none).
+    /// Sheet of each face (`NONE` for none).
     pub face_sheet: Vec<u32>,
     pub edges: Vec<MeshEdge>,
     pub edge_sides: Vec<HalfEdgeId>,

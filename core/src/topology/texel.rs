@@ -1,7 +1,7 @@
 //! Texel space: every face's normalized UVs scaled by its sheet size, the reasons a face is
 //! frozen, and the per-chart rebasing of REPEAT-wrapped UVs (digest §2.3, §2.9).
 
-use crate::index::FaceId;
+use crate::index::{FaceId, NONE};
 use crate::model::Model;
 use crate::texture::coords::uv_to_texel;
 
@@ -78,7 +78,7 @@ pub const STRAY_UV_SPAN: f64 = 65_536.0;
 pub(crate) struct TexelSpace {
     /// Texel-space UV of corner `3·f + k` (`[0, 0]` for faces without usable UVs).
     pub corner_uv: Vec<[f64; 2]>,
-    /// The face's sheet index (`u32::MAX` when it has none).
+    /// The face's sheet index (`NONE` when it has none).
     pub face_sheet: Vec<u32>,
     pub face_flags: Vec<FrozenReasons>,
     /// Number of UV coordinates (wedges) that are NaN or infinite.
@@ -90,7 +90,7 @@ pub(crate) struct TexelSpace {
 pub(crate) fn to_texel_space(model: &Model, sheet_sizes: &[Option<(u32, u32)>]) -> TexelSpace {
     let nf = model.faces.len();
     let mut corner_uv = vec![[0.0; 2]; 3 * nf];
-    let mut face_sheet = vec![u32::MAX; nf];
+    let mut face_sheet = vec![NONE; nf];
     let mut face_flags = vec![FrozenReasons::default(); nf];
     let mut non_finite_uvs = 0u64;
     for (f, face) in model.faces.iter().enumerate() {
@@ -161,20 +161,6 @@ fn collapse_stray(corners: &mut [[f64; 2]]) -> bool {
 #[inline]
 pub(crate) fn signed_area2(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
     (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-}
-
-/// The area of a 3-D triangle, computed relative to its first corner so georeferenced
-/// coordinates keep their precision.
-#[inline]
-pub(crate) fn area_3d(p: [[f64; 3]; 3]) -> f64 {
-    let d1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
-    let d2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
-    let c = [
-        d1[1] * d2[2] - d1[2] * d2[1],
-        d1[2] * d2[0] - d1[0] * d2[2],
-        d1[0] * d2[1] - d1[1] * d2[0],
-    ];
-    0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
 }
 
 /// The whole-period shift that brings a chart's texel bounding box back near its sheet, or

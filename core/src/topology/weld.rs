@@ -6,6 +6,7 @@
 
 use super::ids::PosId;
 use super::texel::FrozenReasons;
+use crate::index::NONE;
 use crate::model::Model;
 
 /// The comparison key of a coordinate: its bits after mapping −0.0 to +0.0, so the two zeros
@@ -58,7 +59,7 @@ pub(crate) fn weld_positions(positions: &[[f64; 3]]) -> (Vec<PosId>, usize) {
 
 /// Output of the UV weld.
 pub(crate) struct UvWeld {
-    /// Weld id of each corner; `u32::MAX` for corners of faces without usable UVs.
+    /// Weld id of each corner; `NONE` for corners of faces without usable UVs.
     pub corner_weld: Vec<u32>,
     /// Number of distinct `(position, sheet, u, v)` tuples.
     pub count: usize,
@@ -110,7 +111,7 @@ pub(crate) fn weld_uvs(
         (face_sheet[f], coord_bits(uv[0]), coord_bits(uv[1]))
     };
     const LINEAR_SCAN_MAX: usize = 32;
-    let mut corner_weld = vec![u32::MAX; nc];
+    let mut corner_weld = vec![NONE; nc];
     let mut count = 0u32;
     let mut reps: Vec<((u32, u64, u64), u32)> = Vec::new();
     let mut sorted: Vec<((u32, u64, u64), u32)> = Vec::new();

@@ -23,37 +23,7 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
     a.and(b).and(c)
 }
 
-/// SplitMix64: a tiny seeded generator whose output depends only on the seed, on every platform.
-#[derive(Clone, Debug)]
-pub(crate) struct SplitMix64(u64);
-
-impl SplitMix64 {
-    pub(crate) fn new(seed: u64) -> Self {
-        Self(seed)
-    }
-
-    pub(crate) fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// A number in `0..n` (n > 0). The modulo bias is negligible for the small `n` of shuffles,
-    /// and, unlike rejection sampling, the count of draws stays fixed.
-    pub(crate) fn below(&mut self, n: usize) -> usize {
-        (self.next_u64() % n as u64) as usize
-    }
-
-    /// Fisher–Yates shuffle of `v`.
-    pub(crate) fn shuffle<T>(&mut self, v: &mut [T]) {
-        for i in (1..v.len()).rev() {
-            let j = self.below(i + 1);
-            v.swap(i, j);
-        }
-    }
-}
+pub(crate) use scanatlas_core::rng::SplitMix64;
 
 /// The sum over sheets of the area of the bounding box of the placed footprints (what trimming
 /// keeps), for comparing packings of the same items.

@@ -114,7 +114,7 @@ fn check_usage(args: &BuildArgs, registry: &Registry) -> Result<()> {
     // A photo is an input too: neither the model nor the report may land on one.
     let photos = args.images.canonicalize().ok();
     for path in std::iter::once(&args.output).chain(args.report.as_ref()) {
-        let folder = scanatlas_core::output_set::parent_dir(path).canonicalize().ok();
+        let folder = scanatlas_core::io::paths::parent_dir(path).canonicalize().ok();
         if path.exists() && photos.is_some() && folder == photos {
             return Err(usage(format!(
                 "{} is in the photo folder {}: choose another path",

@@ -2,6 +2,7 @@
 //! faces of one chart that overlap, and the folded faces.
 
 use crate::geometry::{Tri2, signed_area2, triangles_overlap_beyond_noise};
+use crate::index::NONE;
 use crate::topology::Topology;
 pub(super) use crate::union_find::find as root;
 
@@ -34,7 +35,7 @@ impl Lists {
             }
             (start, items)
         };
-        let packed = |f: &usize| face_chart[*f] != u32::MAX;
+        let packed = |f: &usize| face_chart[*f] != NONE;
         let (chart_start, chart_faces) = csr(
             n_charts,
             &mut (0..face_chart.len()).filter(packed).map(|f| (face_chart[f] as usize, f as u32)),

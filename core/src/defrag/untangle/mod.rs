@@ -14,6 +14,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use crate::geometry::{Tri2, isometric_energy, signed_area2, triangles_overlap_beyond_noise};
+use crate::index::NONE;
 use crate::plugin::{LocalProblem, LocalSolver};
 use crate::topology::Topology;
 
@@ -138,7 +139,7 @@ struct Region {
 }
 
 /// Repairs the folds and self-overlaps of every chart outside the faces `anchored` marks (see
-/// [`crate::pack::anchor_faces`]). `face_chart` is the packing chart of each face (`u32::MAX` =
+/// [`crate::pack::anchor_faces`]). `face_chart` is the packing chart of each face (`NONE` =
 /// not packed). A chart's repairs read and move only that chart's faces, so the charts are shared
 /// out among the `solvers` (one worker each, on its own copy of the positions), and within a chart
 /// the regions are repaired one after another in a fixed order: the result does not depend on the
@@ -305,7 +306,7 @@ impl ChartScratch {
             uf: (0..n_faces as u32).collect(),
             region: Region {
                 in_region: vec![false; n_faces],
-                local: vec![u32::MAX; t.uv_pos.len()],
+                local: vec![NONE; t.uv_pos.len()],
                 ..Region::default()
             },
         }
@@ -432,7 +433,7 @@ fn attempt(
     for &f in &r.faces {
         for k in 0..3 {
             let v = t.corner_uv[3 * f as usize + k].0;
-            if r.local[v as usize] == u32::MAX {
+            if r.local[v as usize] == NONE {
                 r.local[v as usize] = r.verts.len() as u32;
                 r.verts.push(v);
             }
@@ -465,7 +466,7 @@ fn attempt(
         }
     }
     for &v in &r.verts {
-        r.local[v as usize] = u32::MAX;
+        r.local[v as usize] = NONE;
     }
     r.start.clear();
     result

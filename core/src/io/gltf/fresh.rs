@@ -13,6 +13,7 @@ use serde_json::{Map, Value, json};
 
 use super::output::{self, Bin};
 use crate::index::MaterialId;
+use crate::index::NONE;
 use crate::io::{IoError, WriteOptions};
 use crate::model::Model;
 use crate::texture::coords::flip_v;
@@ -60,7 +61,7 @@ pub(super) fn build(
     binary: bool,
     opts: &WriteOptions,
 ) -> Result<(Value, Bin), IoError> {
-    let out_dir = opts.final_path(&super::source::base_dir(path));
+    let out_dir = opts.final_path(&crate::io::paths::parent_dir(path));
     let corners = model.faces.len() * 3;
     if corners > u32::MAX as usize {
         return Err(IoError::unsupported(path, "too many faces for 32-bit glTF indices"));
@@ -82,7 +83,7 @@ pub(super) fn build(
         for k in 0..3 {
             let uv = f.uv.map(|t| model.uvs[t[k].idx()]);
             let (ub, vb) = uv.map_or((0, 0), |u| (u[0].to_bits(), u[1].to_bits()));
-            let n = f.n.map_or(u32::MAX, |n| n[k].0);
+            let n = f.n.map_or(NONE, |n| n[k].0);
             let key = (f.v[k].0, ub, vb, n);
             let next = vs.count;
             let id = *vs.map.entry(key).or_insert(next);

@@ -277,7 +277,7 @@ impl<'a> Reader<'a> {
                 });
             }
             let rel = uri::percent_decode(u).map_err(|m| self.invalid(format!("{ctx}: {m}")))?;
-            return Ok(ImageSource::File(source::base_dir(self.path).join(rel)));
+            return Ok(ImageSource::File(crate::io::paths::parent_dir(self.path).join(rel)));
         }
         let view = opt_usize(img, "bufferView", &ctx)
             .map_err(|m| self.invalid(m))?

@@ -11,6 +11,7 @@ use serde_json::Value;
 
 use super::uri;
 use crate::io::IoError;
+use crate::io::paths::parent_dir;
 
 const GLB_MAGIC: &[u8; 4] = b"glTF";
 const CHUNK_JSON: u32 = 0x4E4F_534A;
@@ -223,14 +224,6 @@ pub(super) fn check_compression(path: &Path, json: &Value) -> Result<(), IoError
     Ok(())
 }
 
-/// The directory relative URIs are resolved against.
-pub(super) fn base_dir(path: &Path) -> PathBuf {
-    match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    }
-}
-
 /// Loads every buffer of the document, each limited to its `byteLength`.
 /// `json` is normally `doc.json`; a writer passes the document kept from the first read.
 pub(super) fn load_buffers(
@@ -241,7 +234,7 @@ pub(super) fn load_buffers(
     let Some(list) = json.get("buffers") else { return Ok(Vec::new()) };
     let list =
         list.as_array().ok_or_else(|| IoError::invalid(path, "`buffers` is not an array"))?;
-    let dir = base_dir(path);
+    let dir = parent_dir(path);
     let mut out = Vec::with_capacity(list.len());
     for (i, b) in list.iter().enumerate() {
         let declared = b.get("byteLength").and_then(Value::as_u64).ok_or_else(|| {

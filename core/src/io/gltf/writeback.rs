@@ -377,7 +377,7 @@ fn rewrite_materials(
     let orig = &scene.document;
     let src = &scene.source;
     // Materials, textures and images of the current sheets.
-    let out_dir = opts.final_path(&source::base_dir(path));
+    let out_dir = opts.final_path(&crate::io::paths::parent_dir(path));
     let orig_images = orig.get("images").and_then(Value::as_array).map_or(0, Vec::len);
     let orig_mats = orig.get("materials").and_then(Value::as_array).map_or(0, Vec::len);
     let mut sheet_texture: HashMap<SheetId, usize> = HashMap::new();
@@ -483,7 +483,7 @@ fn rewrite_materials(
     }
 
     // Original external image URIs are made relative to the output directory.
-    let src_dir = source::base_dir(src);
+    let src_dir = crate::io::paths::parent_dir(src);
     for k in 0..orig_images {
         let Some(u) = doc["images"][k].get("uri").and_then(Value::as_str) else { continue };
         if u.starts_with("data:") {

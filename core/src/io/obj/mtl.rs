@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use super::lex::{for_each_line, is_blank, rest_text, split_keyword, trim};
 use crate::index::{MaterialId, SheetId};
 use crate::io::IoError;
+use crate::io::paths::parent_dir;
 use crate::model::{ImageSource, Material, Sheet};
 use crate::warnings::{Warning, WarningCode};
 
@@ -226,14 +227,6 @@ pub(super) fn split_map_args(rest: &[u8]) -> (String, String) {
     let opts = String::from_utf8_lossy(trim(&rest[..pos])).into_owned();
     let file = String::from_utf8_lossy(trim(&rest[pos..])).into_owned();
     (opts, file)
-}
-
-/// The directory of a file, `.` when it has none.
-pub(super) fn parent_dir(path: &Path) -> PathBuf {
-    match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    }
 }
 
 /// Resolves a file name written in an OBJ or MTL against the directory of that file. Backslashes

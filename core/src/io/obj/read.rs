@@ -19,10 +19,11 @@ use super::lex::{
     at_token, continues_at, count_tokens, for_each_line, index_at, is_blank, number_at, quote,
     rest_text, split_keyword, token_at,
 };
-use super::mtl::{MaterialTable, parent_dir, resolve_texture};
+use super::mtl::{MaterialTable, resolve_texture};
 use super::{GroupKind, GroupMarker, ObjExtras};
 use crate::index::{FaceId, MaterialId, NormalId, UvId, VertexId};
 use crate::io::IoError;
+use crate::io::paths::parent_dir;
 use crate::io::triangulate::{Polygon, retriangulate};
 use crate::model::{Face, Model, Origin};
 use crate::warnings::{Warning, WarningCode};

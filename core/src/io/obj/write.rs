@@ -10,9 +10,10 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 
 use super::lex::split_keyword;
-use super::mtl::{is_map_keyword, join_map_line, parent_dir, split_map_args};
+use super::mtl::{is_map_keyword, join_map_line, split_map_args};
 use super::{GroupMarker, ObjExtras};
 use crate::atomic::{AtomicFile, is_protected};
+use crate::io::paths::parent_dir;
 use crate::io::{IoError, WriteOptions};
 use crate::model::{Face, ImageSource, Model, Origin};
 use crate::texture::ImageFormat;

@@ -2,7 +2,7 @@
 //! binary little endian or ascii, through an atomic file.
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use crate::atomic::AtomicFile;
 use crate::io::{IoError, WriteOptions};
@@ -19,10 +19,7 @@ pub(crate) fn write(
     ascii: bool,
 ) -> Result<(), IoError> {
     model.validate_indices().map_err(|m| IoError::invalid(path, format!("cannot write: {m}")))?;
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
+    let dir = crate::io::paths::parent_dir(path);
     // Created first so a protected target is refused before any image is written beside it.
     let mut file = AtomicFile::create(path, &opts.protect).map_err(|e| IoError::file(path, e))?;
     let textures = texture_files(model, path, &dir, opts)?;
@@ -262,6 +259,7 @@ impl Body<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::path::PathBuf;
 
     #[test]
     fn relative_paths() {

@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::index::{MaterialId, UvId};
+use crate::index::{MaterialId, NONE, UvId};
 use crate::io::WriteOptions;
 use crate::model::{Model, Origin};
 use crate::pack::PackedLayout;
@@ -59,14 +59,14 @@ fn output_model(
     out.path = PathBuf::new();
     crate::pipeline::set_atlas_sheets(&mut out, sheet_paths, &packed.sheet_sizes);
     let mut uvs = Vec::new();
-    let mut new_id = vec![u32::MAX; vert_uv.len()];
+    let mut new_id = vec![NONE; vert_uv.len()];
     for (f, face) in out.faces.iter_mut().enumerate() {
         let s = packed.face_sheet[f] as usize;
         let (w, h) = packed.sheet_sizes[s];
         let mut ids = [UvId(0); 3];
         for (k, id) in ids.iter_mut().enumerate() {
             let v = param.corner_vert[3 * f + k] as usize;
-            if new_id[v] == u32::MAX {
+            if new_id[v] == NONE {
                 new_id[v] = uvs.len() as u32;
                 uvs.push(texel_to_uv(vert_uv[v], w, h));
             }

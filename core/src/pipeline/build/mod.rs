@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use super::PipelineError;
+use super::context::create_run_dirs;
 use crate::pack::PackReport;
 use crate::photo_atlas::exposure::{Exposure, ExposureOptions};
 use crate::photo_atlas::frequency::FrequencyOptions;
@@ -248,8 +249,8 @@ pub fn build_with_progress(
     times.partition_ms = clock.lap();
 
     clock.start(BuildStage::Decode);
-    let dirs = stages::RunDirs::new(output, cfg)?;
-    let mut photos = stages::decode_photos(&scene, &charts.part, &dirs.work)?;
+    let (_, work_dir) = create_run_dirs(output, cfg.work_dir.as_deref())?;
+    let mut photos = stages::decode_photos(&scene, &charts.part, &work_dir)?;
     times.decode_ms = clock.lap();
     clock.start(BuildStage::Exposure);
     let (expo, gains) = stages::exposure_gains(&scene, &photos, cfg);
@@ -273,14 +274,14 @@ pub fn build_with_progress(
     clock.start(BuildStage::Texture);
     let atlas =
         texturing::Atlas { scene: &scene, sub: &sub, plan: &plan, param: &param, packed: &packed };
-    let mut textured = texturing::texture(&atlas, &charts.part, &mut photos, &gains, &dirs.work)?;
+    let mut textured = texturing::texture(&atlas, &charts.part, &mut photos, &gains, &work_dir)?;
     times.texture_ms = clock.lap();
     clock.start(BuildStage::Smoothing);
     let smoothed = texturing::smooth(&atlas, &photos, &gains, &mut textured, cfg.smoothing);
     times.smoothing_ms = clock.lap();
     drop(photos);
     clock.start(BuildStage::Gutters);
-    texturing::gutters(&mut textured, cfg.padding, &dirs.work)?;
+    texturing::gutters(&mut textured, cfg.padding, &work_dir)?;
     times.gutter_ms = clock.lap();
 
     clock.start(BuildStage::Write);

@@ -20,7 +20,7 @@ use crate::photo_atlas::seam_placement::{SeamInput, SeamPlacementReport, place_s
 use crate::photo_atlas::split::Split;
 use crate::photo_atlas::visibility::{self, Visibility};
 use crate::photo_atlas::{BuildError, read_rig};
-use crate::pipeline::{PipelineError, create_dir};
+use crate::pipeline::PipelineError;
 use crate::plugin::Packer;
 use crate::texture::{PixelFormat, TileStore, decode};
 
@@ -166,25 +166,6 @@ pub(super) fn partition(scene: &Scene, cost: &CameraCost<'_>, cfg: &BuildConfig)
     let (positions, tris, cams) = (scene.positions(), &scene.tris, &scene.rig.cameras);
     let occlusion = detach_overlaps(&mut part, positions, tris, &scene.geom, &scene.vis, cams);
     Charts { part, occlusion }
-}
-
-/// The output folder (beside the output model) and the folder of temporary tile files.
-pub(super) struct RunDirs {
-    pub work: PathBuf,
-}
-
-impl RunDirs {
-    /// Creates both folders.
-    pub fn new(output: &Path, cfg: &BuildConfig) -> Result<Self, PipelineError> {
-        let out_dir = match output.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
-        create_dir(&out_dir)?;
-        let work = cfg.work_dir.clone().unwrap_or_else(|| out_dir.clone());
-        create_dir(&work)?;
-        Ok(Self { work })
-    }
 }
 
 /// The photos as tile files, by camera index; `used[k]` when some chart is textured from

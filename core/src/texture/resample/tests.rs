@@ -4,33 +4,18 @@
 use std::path::Path;
 
 use super::*;
+use crate::rng::SplitMix64;
 use crate::texture::SampleType;
 use crate::texture::raster::{PixelRect, rasterize_triangle};
-
-/// A small deterministic generator (splitmix64), so tests need no extra dependency.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
 
 /// A store of random bytes (for `F32` any bit pattern, NaNs included: a verbatim copy must keep
 /// them too).
 fn random_store(dir: &Path, w: u32, h: u32, format: PixelFormat, seed: u64) -> TileStore {
     let mut s = TileStore::create(dir, w, h, format).unwrap();
-    let mut rng = Rng(seed);
+    let mut rng = SplitMix64::new(seed);
     let mut row = vec![0u8; w as usize * format.bytes_per_pixel()];
     for y in 0..h {
-        row.iter_mut().for_each(|b| *b = rng.next() as u8);
+        row.iter_mut().for_each(|b| *b = rng.next_u64() as u8);
         s.write_row(y, 0, &row);
     }
     s
@@ -274,7 +259,7 @@ fn triangles_sharing_an_edge_leave_no_gap_and_write_no_texel_twice() {
 
 /// Random faces over two output sheets, overlapping one another, some grid-preserved.
 fn random_faces(
-    rng: &mut Rng,
+    rng: &mut SplitMix64,
     n: usize,
     inputs: &[(u32, u32)],
     outputs: &[(u32, u32)],
@@ -289,9 +274,9 @@ fn random_faces(
             let dst = [0, 1, 2].map(|_| [o[0] + rng.unit() * 60.0, o[1] + rng.unit() * 60.0]);
             if k % 3 == 0 {
                 let g = GridTransform {
-                    mirror: rng.next().is_multiple_of(2),
-                    quarter_turns: (rng.next() % 4) as u8,
-                    offset: [(rng.next() % 50) as i64, (rng.next() % 50) as i64],
+                    mirror: rng.next_u64().is_multiple_of(2),
+                    quarter_turns: (rng.next_u64() % 4) as u8,
+                    offset: [(rng.next_u64() % 50) as i64, (rng.next_u64() % 50) as i64],
                 };
                 FaceMapping {
                     dst_sheet: so as u32,
@@ -319,7 +304,7 @@ fn output_bytes_do_not_depend_on_the_thread_count() {
         .map(|(k, &(w, h))| random_store(dir.path(), w, h, PixelFormat::RGBA8, 11 + k as u64))
         .collect();
     let refs: Vec<&TileStore> = inputs.iter().collect();
-    let faces = random_faces(&mut Rng(5), 300, &ins, &outs);
+    let faces = random_faces(&mut SplitMix64::new(5), 300, &ins, &outs);
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         pool.install(|| {
@@ -351,7 +336,7 @@ fn push_pull_fills_every_texel_and_keeps_written_ones() {
         let mut store = TileStore::create(dir.path(), w, h, format).unwrap();
         let mut cov = Coverage::for_store(&store);
         let mut written = Vec::new();
-        let mut rng = Rng(9);
+        let mut rng = SplitMix64::new(9);
         // Scattered blobs of one colour.
         let colour = [40.0, 200.0, 90.0, 255.0];
         for _ in 0..25 {

@@ -3,7 +3,7 @@
 
 use super::*;
 use scanatlas_core::geometry::{mean_isometric_energy, orientation};
-use scanatlas_core::synth::XorShift64;
+use scanatlas_core::rng::XorShift64;
 use std::time::Instant;
 
 /// A jittered `nx × ny` vertex grid with unit spacing at texel offset `origin`, split into

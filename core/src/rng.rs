@@ -1,6 +1,8 @@
-//! Small deterministic randomness for the synthetic generator: a SplitMix64 stream, stateless
-//! hashes for per-element randomness (so parallel loops draw the same numbers in any order), and
-//! seeded smooth value noise for shape displacement and camera preferences.
+//! The workspace's one source of deterministic randomness: a SplitMix64 stream (synthetic scans,
+//! the report's colour samples, the packers' shuffles, the `random` scorer), a xorshift stream for
+//! test and bench fixtures, stateless hashes for per-element randomness (so parallel loops draw
+//! the same numbers in any order), and seeded smooth value noise for shape displacement and camera
+//! preferences. Nothing here depends on the platform, so seeded runs give the same bytes anywhere.
 
 /// The SplitMix64 finalizer: a bijective 64-bit mix with good avalanche.
 #[inline]
@@ -39,10 +41,12 @@ pub struct SplitMix64 {
 }
 
 impl SplitMix64 {
+    /// A stream starting from `seed`; every seed, zero included, is valid.
     pub fn new(seed: u64) -> Self {
         Self { state: seed }
     }
 
+    /// The next 64 random bits.
     #[inline]
     pub fn next_u64(&mut self) -> u64 {
         self.state = self.state.wrapping_add(0x9E37_79B9_7F4A_7C15);
@@ -60,6 +64,21 @@ impl SplitMix64 {
     pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
         lo + (hi - lo) * self.unit()
     }
+
+    /// A number in `0..n` (n > 0). The modulo bias is negligible for the small `n` of shuffles
+    /// and fixtures, and, unlike rejection sampling, the count of draws stays fixed.
+    #[inline]
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next_u64() % n as u64) as usize
+    }
+
+    /// Fisher–Yates shuffle of `v`.
+    pub fn shuffle<T>(&mut self, v: &mut [T]) {
+        for i in (1..v.len()).rev() {
+            let j = self.below(i + 1);
+            v.swap(i, j);
+        }
+    }
 }
 
 /// A xorshift64 stream: the generator the tests and benches use for their fixtures (one shared
@@ -68,13 +87,25 @@ impl SplitMix64 {
 pub struct XorShift64(pub u64);
 
 impl XorShift64 {
-    /// Uniform in `[-1, 1)`.
+    /// The next 64 random bits.
     #[inline]
-    pub fn signed(&mut self) -> f64 {
+    pub fn next_u64(&mut self) -> u64 {
         self.0 ^= self.0 << 13;
         self.0 ^= self.0 >> 7;
         self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        self.0
+    }
+
+    /// Uniform in `[0, 1)`.
+    #[inline]
+    pub fn unit(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Uniform in `[-1, 1)`.
+    #[inline]
+    pub fn signed(&mut self) -> f64 {
+        self.unit() * 2.0 - 1.0
     }
 }
 
