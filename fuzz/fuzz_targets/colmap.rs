@@ -6,7 +6,7 @@
 #[path = "common.rs"]
 mod common;
 
-use scanatlas_core::build::colmap::{read_binary, read_text};
+use scanatlas_core::photo_atlas::colmap::{read_binary, read_text};
 
 libfuzzer_sys::fuzz_target!(|data: &[u8]| {
     let Some((&kind, rest)) = data.split_first() else { return };

@@ -1,26 +1,12 @@
-//! Fuzzes the `defrag --config FILE.toml` reader, through the command line's own code (its
-//! `cli` and `commands::config` modules are compiled in here): parsing, merging under the
-//! flags, and the check of every plugin name and parameter.
+//! Fuzzes the `defrag --config FILE.toml` reader through the command line's own library:
+//! parsing, merging under the flags, and the check of every plugin name and parameter.
 
 #![no_main]
 
 #[path = "common.rs"]
 mod common;
 
-#[allow(dead_code)]
-#[path = "../../tools/src/cli.rs"]
-mod cli;
-
-mod commands {
-    /// The command line's usage error, as `tools/src/commands/mod.rs` defines it.
-    #[derive(Debug)]
-    pub struct UsageError(pub String);
-
-    #[allow(dead_code)]
-    #[path = "../../../tools/src/commands/config.rs"]
-    pub mod config;
-}
-
+use scanatlas_cli::{cli, commands};
 use clap::Parser;
 
 libfuzzer_sys::fuzz_target!(|data: &[u8]| {
