@@ -37,6 +37,10 @@ pub enum WarningCode {
     UnsupportedExtension,
     /// A texture index or assignment the reader had to guess or ignore.
     TextureAssignment,
+    /// `--texel-scale` below 1: every chart is resampled to fewer texels than the input's.
+    TexelScaleBelowOne,
+    /// A sheet of a `--sheet-size` run is larger than the fixed size (a chart does not fit it).
+    SheetSizeExceeded,
 }
 
 impl WarningCode {
@@ -54,6 +58,8 @@ impl WarningCode {
             Self::PartialTriangle => "partial-triangle",
             Self::UnsupportedExtension => "unsupported-extension",
             Self::TextureAssignment => "texture-assignment",
+            Self::TexelScaleBelowOne => "texel-scale-below-one",
+            Self::SheetSizeExceeded => "sheet-size-exceeded",
         }
     }
 }
