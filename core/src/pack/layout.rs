@@ -278,9 +278,10 @@ struct Placed {
 /// out. Deterministic for a deterministic packer; the packer's answer is checked exactly.
 ///
 /// The stages: frames (anchors), texel-clash separation, footprints, the packer, placement and
-/// trimming, then the sheet sizes asked for (`sheet_size`, `pow2`, `align`). Free space for
-/// extra blocks (palettes and the like) can be asked of the packer as further [`PackItem`]s in
-/// `pack_items`; the sheets come out as [`PackedLayout::sheet_sizes`].
+/// trimming, then the sheet sizes asked for (`sheet_size`, `pow2`, `align`; see `sheet_size`).
+/// Free space for blocks that are not charts (a palette, say) is to be asked for at the packer:
+/// appended as further [`PackItem`]s after the charts' items, their placements come back in the
+/// same order after the charts', and trimming and the sheet sizes then account for them.
 pub fn pack_layout(
     input: &LayoutInput,
     packer: &dyn Packer,
