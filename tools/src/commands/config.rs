@@ -170,6 +170,8 @@ impl FileConfig {
 
     /// A sheet size option (`W` or `"WxH"`).
     fn sheet_size(&self, key: &str) -> Result<Option<(u32, u32)>, UsageError> {
+        let parse_sheet_size =
+            |s: &str| parse_sheet_size(s).map_err(|e| format!("config option `{key}`: {e}"));
         match self.options.get(key) {
             None => Ok(None),
             Some(toml::Value::Integer(i)) => {
