@@ -13,6 +13,7 @@ mod anchor;
 mod footprint;
 mod frame;
 mod layout;
+mod place;
 mod sheet_size;
 mod texel_clash;
 
