@@ -39,6 +39,10 @@ pub enum WarningCode {
     TextureAssignment,
     /// Faces whose UVs span more than any sheet can hold: collapsed to one of their corners.
     StrayUvs,
+    /// `--texel-scale` below 1: every chart is resampled to fewer texels than the input's.
+    TexelScaleBelowOne,
+    /// A sheet of a `--sheet-size` run is larger than the fixed size (a chart does not fit it).
+    SheetSizeExceeded,
 }
 
 impl WarningCode {
@@ -57,6 +61,8 @@ impl WarningCode {
             Self::UnsupportedExtension => "unsupported-extension",
             Self::TextureAssignment => "texture-assignment",
             Self::StrayUvs => "stray-uvs",
+            Self::TexelScaleBelowOne => "texel-scale-below-one",
+            Self::SheetSizeExceeded => "sheet-size-exceeded",
         }
     }
 }

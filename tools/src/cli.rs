@@ -390,8 +390,8 @@ const HEADING_EXPERIMENTS: &str = "Experiments";
 /// The examples closing `defrag --help`.
 const DEFRAG_EXAMPLES: &str = "\
 Examples:
-  # The paper's defragmentation, textures as JPEG sheets of at most 8192 texels:
-  scanatlas defrag scan.obj -o out/scan.obj --max-sheet-size 8192 --texture-format jpg
+  # The paper's defragmentation, as JPEG sheets of exactly 4096x4096 texels (as many as needed):
+  scanatlas defrag scan.obj -o out/scan.obj --sheet-size 4096 --pow2 --texture-format jpg
 
   # A looser seam match, SLIM alone as the solver, plugin parameters from a file, and the report:
   scanatlas defrag scan.glb -o out/scan.glb --matching-tolerance 3 --solver slim \\
@@ -503,9 +503,27 @@ pub struct DefragArgs {
     #[arg(long, value_parser = clap::value_parser!(u32).range(0..=4096), help_heading = HEADING_PACKING)]
     pub padding: Option<u32>,
     /// Output sheet size limit, `W` or `WxH`, each side at most 65536 (default: the largest input
-    /// sheet).
+    /// sheet); with --pow2 or --align it is rounded down to the allowed sides.
     #[arg(long, value_name = "W[xH]", value_parser = parse_sheet_size, help_heading = HEADING_PACKING)]
     pub max_sheet_size: Option<(u32, u32)>,
+    /// Fixed output sheet size, `W` or `WxH`: the packer fills as many sheets as needed, each
+    /// exactly this size (a sheet grows only for a chart larger than it, with a warning).
+    #[arg(long, value_name = "W[xH]", value_parser = parse_sheet_size,
+          conflicts_with = "max_sheet_size", help_heading = HEADING_TEXTURES)]
+    pub sheet_size: Option<(u32, u32)>,
+    /// Every output sheet side a power of two (trimmed sides are rounded up).
+    #[arg(long, help_heading = HEADING_TEXTURES)]
+    pub pow2: bool,
+    /// Every output sheet side a multiple of N (trimmed sides are rounded up) [default: 1].
+    #[arg(long, value_name = "N",
+          value_parser = clap::value_parser!(u32).range(1..=i64::from(scanatlas_core::pack::MAX_ALIGN)),
+          help_heading = HEADING_TEXTURES)]
+    pub align: Option<u32>,
+    /// Scale every chart's texels by S (0.01 to 16). At 1 texels are copied verbatim where the
+    /// charts allow; any other value resamples everything, and below 1 loses resolution (a
+    /// warning, an error with --strict) [default: 1].
+    #[arg(long, value_name = "S", help_heading = HEADING_TEXTURES)]
+    pub texel_scale: Option<f64>,
     /// Texture format of the written sheets (default: the input's).
     #[arg(long, value_enum, help_heading = HEADING_TEXTURES)]
     pub texture_format: Option<TextureFormatArg>,

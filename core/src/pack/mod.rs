@@ -11,13 +11,20 @@
 
 mod anchor;
 mod footprint;
+mod frame;
 mod layout;
+mod place;
+mod sheet_size;
 mod texel_clash;
 
 #[cfg(test)]
 mod tests;
 
-pub use layout::{anchor_faces, max_sheet_size, pack_layout, rigid_groups_beyond_anchor};
+pub use layout::{anchor_faces, pack_layout, rigid_groups_beyond_anchor};
+pub use sheet_size::{
+    MAX_ALIGN, MAX_TEXEL_SCALE, MIN_TEXEL_SCALE, check_sheet_shape, max_sheet_size,
+    output_sheet_size,
+};
 
 use crate::geometry::GridTransform;
 use crate::plugin::PackerError;
@@ -50,6 +57,17 @@ pub struct PackOptions {
     pub padding: u32,
     /// Output sheet size limit; `None` = the largest input sheet (by area, then width).
     pub max_sheet_size: Option<(u32, u32)>,
+    /// Fixed output sheet size: the packer fills sheets of exactly this size, as many as needed
+    /// (excludes `max_sheet_size`). See `sheet_size` for the rule.
+    pub sheet_size: Option<(u32, u32)>,
+    /// Every output sheet side is a power of two.
+    pub pow2: bool,
+    /// Every output sheet side is a multiple of this (1: any side).
+    pub align: u32,
+    /// Factor on every chart's texel footprint. At 1 the charts keep the input's texel density
+    /// and grid-preserving anchors copy texels verbatim; at any other value every face is
+    /// resampled (below 1 this loses resolution).
+    pub texel_scale: f64,
     /// A chart is anchored when its largest rigid group covers at least this fraction of the
     /// chart's 3D area (the paper's 5%).
     pub anchor_min_fraction: f64,
@@ -72,6 +90,10 @@ impl Default for PackOptions {
         Self {
             padding: 4,
             max_sheet_size: None,
+            sheet_size: None,
+            pow2: false,
+            align: 1,
+            texel_scale: 1.0,
             anchor_min_fraction: 0.05,
             rigid_tolerance: 1e-6,
             separate_texel_clashes: true,
@@ -121,6 +143,9 @@ pub struct PackReport {
     pub occupancy: f64,
     /// The size limit used.
     pub max_sheet_size: (u32, u32),
+    /// Sheets of a fixed-size run (`sheet_size`) that could not keep that size, because a chart
+    /// is larger than the fixed sheet; each is rounded up to the allowed sides instead.
+    pub sheets_off_size: usize,
     /// Wall-clock milliseconds per step (informative only; never affects the output).
     pub anchors_ms: f64,
     pub texel_clash_ms: f64,

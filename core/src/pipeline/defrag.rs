@@ -23,6 +23,7 @@ use crate::plugin::{LocalSolver, MergeScorer, Packer, Params, Registry};
 use crate::texture::ImageFormat;
 use crate::texture::resample::ResampleReport;
 use crate::topology::{PreparationReport, Topology};
+use crate::warnings::{Warning, WarningCode};
 
 /// What to run and with which plugins.
 #[derive(Clone, Debug)]
@@ -291,7 +292,11 @@ pub fn defrag_with_progress(
 
     progress(DefragStage::Load);
     let t = Instant::now();
-    let model = Arc::new(super::load_model(input)?);
+    let mut model = super::load_model(input)?;
+    if !cfg.merge_only {
+        model.warnings.extend(option_warnings(&cfg.pack));
+    }
+    let model = Arc::new(model);
     crate::warnings::check_strict(cfg.strict, &model.warnings)?;
     check_pack_options(&cfg.pack, &model)?;
     let ctx = RunContext::open(&paths, Some(&model))?;
@@ -334,7 +339,10 @@ pub fn defrag_with_progress(
     let t = Instant::now();
     let (output_stats, output_warnings) = output_stats(output, &stats_opts)?;
     let (input_stats, _) = input_stats.finish();
-    let warnings = [&model.warnings[..], &prepare_warnings[..], &output_warnings[..]].concat();
+    let pack_warnings = emitted.pack.as_ref().map(sheet_warnings).unwrap_or_default();
+    let warnings =
+        [&model.warnings[..], &prepare_warnings[..], &output_warnings[..], &pack_warnings[..]]
+            .concat();
     times.metrics_ms = ms(t);
     times.total_ms = ms(t_all);
     Ok(DefragReport {
@@ -423,13 +431,18 @@ pub const MAX_PADDING: u32 = 4096;
 
 /// Refuses packing options no sheet can honour, before any work.
 fn check_pack_options(pack: &PackOptions, model: &Model) -> Result<(), PipelineError> {
-    if let Some((w, h)) = pack.max_sheet_size
-        && (w.max(h) > MAX_SHEET_SIDE || w.min(h) == 0)
+    for (flag, size) in
+        [("--max-sheet-size", pack.max_sheet_size), ("--sheet-size", pack.sheet_size)]
     {
-        return Err(PipelineError::Usage(format!(
-            "--max-sheet-size {w}x{h}: each side must be from 1 to {MAX_SHEET_SIDE}"
-        )));
+        if let Some((w, h)) = size
+            && (w.max(h) > MAX_SHEET_SIDE || w.min(h) == 0)
+        {
+            return Err(PipelineError::Usage(format!(
+                "{flag} {w}x{h}: each side must be from 1 to {MAX_SHEET_SIDE}"
+            )));
+        }
     }
+    crate::pack::check_sheet_shape(pack).map_err(PipelineError::Usage)?;
     if pack.padding > MAX_PADDING {
         return Err(PipelineError::Usage(format!(
             "--padding {}: at most {MAX_PADDING}",
@@ -445,6 +458,39 @@ fn check_pack_options(pack: &PackOptions, model: &Model) -> Result<(), PipelineE
         )));
     }
     Ok(())
+}
+
+/// What the packing options alone say degrades the output: a texel scale below 1 resamples
+/// every chart to fewer texels than the input has.
+fn option_warnings(pack: &PackOptions) -> Vec<Warning> {
+    if pack.texel_scale < 1.0 {
+        vec![Warning::new(
+            WarningCode::TexelScaleBelowOne,
+            format!(
+                "--texel-scale {}: every chart is resampled to {:.0}% of its input texels on each \
+                 side, so the output loses resolution and no texel is copied verbatim",
+                pack.texel_scale,
+                100.0 * pack.texel_scale
+            ),
+        )]
+    } else {
+        Vec::new()
+    }
+}
+
+/// What the packing could not honour of the sheet size asked for.
+fn sheet_warnings(report: &PackReport) -> Vec<Warning> {
+    if report.sheets_off_size == 0 {
+        return Vec::new();
+    }
+    vec![Warning::new(
+        WarningCode::SheetSizeExceeded,
+        format!(
+            "--sheet-size: {} of {} output sheets are larger than the fixed size, because a chart \
+             does not fit on a sheet of that size (charts {:?})",
+            report.sheets_off_size, report.sheets, report.oversized_charts
+        ),
+    )]
 }
 
 /// Starts what runs beside the next stages: the input's figures for the report on idle CPU
@@ -497,7 +543,9 @@ fn merge_stage(
         // each side for the packer's conservative raster of the footprint.
         let (w, h) = max_sheet_size(&cfg.pack, &loaded.input_sheet_sizes);
         let side = f64::from(w.min(h)) - 2.0 * f64::from(cfg.pack.padding) - 4.0;
-        merge_opts.max_chart_extent = side.max(1.0);
+        // The packer scales every chart by the texel scale, so the merge's bound is in input
+        // texels.
+        merge_opts.max_chart_extent = side.max(1.0) / cfg.pack.texel_scale;
     }
     let solvers = std::mem::take(&mut plugins.solvers);
     let (merge, layout) =

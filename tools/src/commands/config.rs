@@ -7,16 +7,17 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use clap::ValueEnum;
 use scanatlas_core::defrag::MergeOptions;
-use scanatlas_core::pack::PackOptions;
+use scanatlas_core::pack::{PackOptions, check_sheet_shape};
 use scanatlas_core::pipeline::defrag::DefragConfig;
 use scanatlas_core::plugin::{ParamValue, Params, PluginKind, Registry};
 
 use super::UsageError;
-use crate::cli::{DefragArgs, parse_sheet_size};
+use crate::cli::{DefragArgs, TextureFormatArg, parse_sheet_size};
 
 /// The top-level keys a config file may hold (besides the plugin tables).
-pub const TOP_LEVEL_KEYS: [&str; 25] = [
+pub const TOP_LEVEL_KEYS: [&str; 30] = [
     "matching-tolerance",
     "boundary-tolerance",
     "local-distortion",
@@ -41,6 +42,11 @@ pub const TOP_LEVEL_KEYS: [&str; 25] = [
     "packer",
     "padding",
     "max-sheet-size",
+    "sheet-size",
+    "pow2",
+    "align",
+    "texel-scale",
+    "texture-format",
     "jpeg-quality",
 ];
 
@@ -162,6 +168,35 @@ impl FileConfig {
         )
     }
 
+    /// A sheet size option (`W` or `"WxH"`).
+    fn sheet_size(&self, key: &str) -> Result<Option<(u32, u32)>, UsageError> {
+        let parse_sheet_size =
+            |s: &str| parse_sheet_size(s).map_err(|e| format!("config option `{key}`: {e}"));
+        match self.options.get(key) {
+            None => Ok(None),
+            Some(toml::Value::Integer(i)) => {
+                Ok(Some(parse_sheet_size(&i.to_string()).map_err(usage)?))
+            }
+            Some(toml::Value::String(s)) => Ok(Some(parse_sheet_size(s).map_err(usage)?)),
+            Some(_) => Err(usage(format!("config option `{key}`: expected W or \"WxH\""))),
+        }
+    }
+
+    /// The `texture-format` option, by the names `--texture-format` takes.
+    fn texture_format(&self) -> Result<Option<TextureFormatArg>, UsageError> {
+        let Some(name) = self.text("texture-format")? else { return Ok(None) };
+        TextureFormatArg::from_str(&name, true).map(Some).map_err(|_| {
+            let valid: Vec<String> = TextureFormatArg::value_variants()
+                .iter()
+                .filter_map(|v| v.to_possible_value().map(|p| p.get_name().to_string()))
+                .collect();
+            usage(format!(
+                "config option `texture-format`: unknown format {name:?}; valid: {}",
+                valid.join(", ")
+            ))
+        })
+    }
+
     /// The parameters of plugin `name` of `kind` given in the file (empty when none).
     pub fn params(&self, kind: PluginKind, name: &str) -> Params {
         self.plugins.get(&(kind, name.to_string())).cloned().unwrap_or_default()
@@ -272,14 +307,10 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
         .check(PluginKind::Packer, &packer, &packer_params)
         .map_err(|e| usage(e.to_string()))?;
 
-    let max_sheet_size = match args.max_sheet_size {
-        Some(s) => Some(s),
-        None => match file.options.get("max-sheet-size") {
-            None => None,
-            Some(toml::Value::Integer(i)) => Some(parse_sheet_size(&i.to_string()).map_err(usage)?),
-            Some(toml::Value::String(s)) => Some(parse_sheet_size(s).map_err(usage)?),
-            Some(_) => return Err(usage("config option `max-sheet-size`: expected W or \"WxH\"")),
-        },
+    // A size on the command line replaces both sizes of the file (they exclude each other).
+    let (max_sheet_size, sheet_size) = match (args.max_sheet_size, args.sheet_size) {
+        (None, None) => (file.sheet_size("max-sheet-size")?, file.sheet_size("sheet-size")?),
+        flags => flags,
     };
     let padding = match args.padding {
         Some(p) => p,
@@ -293,11 +324,33 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
             None => base.jpeg_quality,
         },
     };
+    let texture_format = match args.texture_format {
+        Some(f) => Some(f),
+        None => file.texture_format()?,
+    };
+    let align = match args.align {
+        Some(a) => a,
+        None => file
+            .whole("align", i64::from(scanatlas_core::pack::MAX_ALIGN))?
+            .map_or(PackOptions::default().align, |a| a as u32),
+    };
     let split_rigid_ratio =
         pick(args.split_rigid, "split-rigid", PackOptions::default().split_rigid_ratio)?;
     if !(split_rigid_ratio.is_finite() && split_rigid_ratio >= 0.0) {
         return Err(usage(format!("--split-rigid must be 0 or more, got {split_rigid_ratio}")));
     }
+    let pack = PackOptions {
+        padding,
+        max_sheet_size,
+        sheet_size,
+        pow2: args.pow2 || file.flag("pow2")?,
+        align,
+        texel_scale: pick(args.texel_scale, "texel-scale", PackOptions::default().texel_scale)?,
+        separate_texel_clashes: !(args.no_clash_separation || file.flag("no-clash-separation")?),
+        split_rigid_ratio,
+        ..PackOptions::default()
+    };
+    check_sheet_shape(&pack).map_err(usage)?;
     Ok(DefragConfig {
         merge,
         scorer,
@@ -306,17 +359,10 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
         solver_params,
         packer,
         packer_params,
-        pack: PackOptions {
-            padding,
-            max_sheet_size,
-            separate_texel_clashes: !(args.no_clash_separation
-                || file.flag("no-clash-separation")?),
-            split_rigid_ratio,
-            ..PackOptions::default()
-        },
-        texture_format: args.texture_format.map(super::defrag::image_format),
+        pack,
+        texture_format: texture_format.map(super::defrag::image_format),
         jpeg_quality,
-        lossy_webp: args.texture_format.is_some_and(crate::cli::TextureFormatArg::is_lossy_webp),
+        lossy_webp: texture_format.is_some_and(crate::cli::TextureFormatArg::is_lossy_webp),
         work_dir: args.work_dir.clone(),
         report: args.report.clone(),
         metrics_overlaps: None,

@@ -146,4 +146,10 @@ fn print_summary(report: &DefragReport, quiet: bool) {
             report.output_stats.atlas_solidity.unwrap_or(0.0)
         );
     }
+    if let Some(o) = report.pack_options.filter(|o| o.texel_scale != 1.0) {
+        eprintln!(
+            "  texel scale {}: every chart resampled, no texel copied verbatim",
+            o.texel_scale
+        );
+    }
 }
