@@ -138,7 +138,8 @@ fn collapse_faces_to_points(obj: &Path, step: usize) -> usize {
     let faces: Vec<usize> = (0..lines.len()).filter(|&i| lines[i].starts_with("f ")).collect();
     let n_vt = lines.iter().filter(|l| l.starts_with("vt ")).count();
     let last_vt = lines.iter().rposition(|l| l.starts_with("vt ")).unwrap();
-    let vt_of = |line: &str| line.split_whitespace().nth(1).unwrap().split('/').nth(1).unwrap().to_string();
+    let vt_of =
+        |line: &str| line.split_whitespace().nth(1).unwrap().split('/').nth(1).unwrap().to_string();
     let vts: Vec<&str> = lines.iter().filter(|l| l.starts_with("vt ")).copied().collect();
     let mut out: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
     let mut added = Vec::new();

@@ -140,7 +140,8 @@ impl Palette {
             let h = f64::from(sheet_sizes[b.sheet as usize].1);
             let (x0, top) = (f64::from(b.col) * s, h - f64::from(b.row) * s);
             let (x1, bottom) = (x0 + s, top - s);
-            for dst in [[[x0, bottom], [x1, bottom], [x1, top]], [[x0, bottom], [x1, top], [x0, top]]]
+            for dst in
+                [[[x0, bottom], [x1, bottom], [x1, top]], [[x0, bottom], [x1, top], [x0, top]]]
             {
                 out.push(FaceMapping {
                     dst_sheet: b.sheet,
@@ -237,7 +238,13 @@ pub fn place_palette(
     palette.blocks = slots
         .into_iter()
         .zip(wanted)
-        .map(|((sheet, col, row), (src_sheet, src))| PaletteBlock { sheet, col, row, src_sheet, src })
+        .map(|((sheet, col, row), (src_sheet, src))| PaletteBlock {
+            sheet,
+            col,
+            row,
+            src_sheet,
+            src,
+        })
         .collect();
     palette
 }
@@ -275,8 +282,14 @@ fn cell_grids(
         };
         let xs = tri.map(|p| p[0]);
         let ys = tri.map(|p| p[1]);
-        let (x0, x1) = (xs.iter().copied().fold(f64::INFINITY, f64::min), xs.iter().copied().fold(f64::NEG_INFINITY, f64::max));
-        let (y0, y1) = (ys.iter().copied().fold(f64::INFINITY, f64::min), ys.iter().copied().fold(f64::NEG_INFINITY, f64::max));
+        let (x0, x1) = (
+            xs.iter().copied().fold(f64::INFINITY, f64::min),
+            xs.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        );
+        let (y0, y1) = (
+            ys.iter().copied().fold(f64::INFINITY, f64::min),
+            ys.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        );
         let hf = f64::from(h);
         let rect = [
             (x0 - margin).floor() as i64,
@@ -421,8 +434,7 @@ mod tests {
     fn a_full_sheet_is_widened_then_new_sheets_open() {
         let full = [[0.0, 0.0], [40.0, 0.0], [40.0, 40.0]];
         let full2 = [[0.0, 0.0], [40.0, 40.0], [0.0, 40.0]];
-        let faces: Vec<PaletteFace> =
-            (0..10).map(|k| face(k, [f64::from(k) + 0.5, 0.5])).collect();
+        let faces: Vec<PaletteFace> = (0..10).map(|k| face(k, [f64::from(k) + 0.5, 0.5])).collect();
         let mut sizes = vec![(40, 40)];
         let charts = [(0, full), (0, full2)].into_iter();
         let p = place_palette(&faces, 0, charts, &mut sizes, space(4, (64, 64)));

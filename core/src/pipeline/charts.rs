@@ -99,8 +99,7 @@ impl PackingCharts {
     /// chart around their new place holds.
     pub fn take_palette_faces(&mut self, topo: &Topology) -> (Vec<PaletteFace>, usize) {
         let tri = |f: usize| [0, 1, 2].map(|k| topo.orig_uv[3 * f + k]);
-        let candidate =
-            |f: usize| self.face_chart[f] != u32::MAX && palette::zero_uv_area(tri(f));
+        let candidate = |f: usize| self.face_chart[f] != u32::MAX && palette::zero_uv_area(tri(f));
         // Input UV vertices of the candidates' corners, keyed as the input welds them.
         let key = |c: usize| {
             let uv = topo.orig_uv[c];

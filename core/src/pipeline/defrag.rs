@@ -525,8 +525,7 @@ fn pack_stage(
         padding: cfg.pack.padding,
         max_sheet_size: packed.report.max_sheet_size,
     };
-    let palette =
-        place_palette_blocks(topo, charts, &mut packed, &palette_faces, segments, space);
+    let palette = place_palette_blocks(topo, charts, &mut packed, &palette_faces, segments, space);
     Ok((packed, palette, untangled))
 }
 

@@ -22,11 +22,7 @@ pub(super) struct Counts {
 
 impl Counts {
     pub(super) fn add(a: Self, b: Self) -> Self {
-        Self {
-            copied: a.copied + b.copied,
-            sampled: a.sampled + b.sampled,
-            ring: a.ring + b.ring,
-        }
+        Self { copied: a.copied + b.copied, sampled: a.sampled + b.sampled, ring: a.ring + b.ring }
     }
 }
 

@@ -545,8 +545,8 @@ fn bilinear_sampling_of_a_grid_preserved_face_reads_only_input_texels() {
         g.offset = [(5.0 - minx).ceil() as i64 + 3, (2.0 - miny).ceil() as i64 + 11];
         let dst = src.map(|p| g.apply(p));
         let face = FaceMapping { dst_sheet: 0, dst, src_sheet: 0, src, exact: Some(g) };
-        let out = resample_sheets(&[&input], &[face], &[(ow, oh)], &opts(dir.path(), 3, true))
-            .unwrap();
+        let out =
+            resample_sheets(&[&input], &[face], &[(ow, oh)], &opts(dir.path(), 3, true)).unwrap();
         assert!(out.report.texels_ring > 100, "{:?}", out.report);
         // Every texel that bilinear sampling at points inside the face reads (brute force over
         // a dense grid of interior points) is the input's texel under the grid map.
