@@ -2,11 +2,11 @@
 //! 3-D areas, and the changes of topology made on the way (the rigid split, the untangle, the
 //! detachment of clashing faces), handing out the packing's [`LayoutInput`] view.
 
+use std::collections::{HashMap, HashSet};
+
 use super::PipelineError;
 use crate::defrag::{MergedLayout, UntangleOptions, UntangleReport, untangle_charts};
 use crate::model::Model;
-use std::collections::{HashMap, HashSet};
-
 use crate::pack::palette::{self, PaletteFace};
 use crate::pack::{LayoutInput, PackOptions, PackedLayout, RigidSplitReport, anchor_faces};
 use crate::plugin::LocalSolver;
