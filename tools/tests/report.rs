@@ -128,3 +128,66 @@ fn progress_json_streams_one_line_per_stage_event() {
     let quiet = ["defrag", input.to_str().unwrap(), "-o", "out2/out.obj", "-q"];
     assert_eq!(ok(&scanatlas(&quiet, d)), "");
 }
+
+/// Collapses every `step`-th face of an OBJ onto one UV point: the UV of a corner of the face
+/// half the model away (a point the face's 3-D neighbours do not hold), as exporters collapse
+/// faces no camera saw. The new `vt` lines go after the last one.
+fn collapse_faces_to_points(obj: &Path, step: usize) -> usize {
+    let text = std::fs::read_to_string(obj).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let faces: Vec<usize> = (0..lines.len()).filter(|&i| lines[i].starts_with("f ")).collect();
+    let n_vt = lines.iter().filter(|l| l.starts_with("vt ")).count();
+    let last_vt = lines.iter().rposition(|l| l.starts_with("vt ")).unwrap();
+    let vt_of =
+        |line: &str| line.split_whitespace().nth(1).unwrap().split('/').nth(1).unwrap().to_string();
+    let vts: Vec<&str> = lines.iter().filter(|l| l.starts_with("vt ")).copied().collect();
+    let mut out: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+    let mut added = Vec::new();
+    for (k, &i) in faces.iter().enumerate().filter(|(k, _)| k % step == 0) {
+        let far = faces[(k + faces.len() / 2) % faces.len()];
+        let vt: usize = vt_of(lines[far]).parse().unwrap();
+        added.push(vts[vt - 1].to_string());
+        let id = n_vt + added.len();
+        let corners: Vec<String> = lines[i]
+            .split_whitespace()
+            .skip(1)
+            .map(|c| {
+                let mut p: Vec<String> = c.split('/').map(str::to_string).collect();
+                p[1] = id.to_string();
+                p.join("/")
+            })
+            .collect();
+        out[i] = format!("f {}", corners.join(" "));
+    }
+    let n = added.len();
+    out.splice(last_vt + 1..last_vt + 1, added);
+    std::fs::write(obj, out.join("\n") + "\n").unwrap();
+    n
+}
+
+#[test]
+fn faces_without_input_uv_area_keep_their_colour() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let input = synth(d, "scan", "5");
+    let collapsed = collapse_faces_to_points(&input, 25);
+    assert!(collapsed > 100, "{collapsed}");
+    for format in ["png", "jpg"] {
+        let out = format!("out_{format}/out.obj");
+        let rep = format!("rep_{format}");
+        let args = ["defrag", input.to_str().unwrap(), "-o", &out, "--report-dir", &rep];
+        let fmt = ["--texture-format", format, "--preview-size", "64"];
+        ok(&scanatlas(&[&args[..], &fmt[..]].concat(), d));
+        let r = json(&d.join(&rep).join("report.json"));
+        let f = &r["report"]["figures"];
+        let points = &f["colour"]["zero_uv_area"];
+        assert!(points["samples"].as_u64().unwrap() > 200, "{f}");
+        let psnr = points["psnr_db"].as_f64().unwrap();
+        assert!(psnr >= 40.0, "{format}: colour PSNR of the faces without UV area {psnr}");
+        // Counted apart: every collapsed face is a point face of the output, none a chart.
+        assert_eq!(f["after"]["point_faces"].as_u64(), Some(collapsed as u64), "{f}");
+        let pal = &r["run"]["pack"]["palette"];
+        assert_eq!(pal["point_faces"].as_u64(), Some(collapsed as u64), "{pal}");
+        assert!(pal["blocks"].as_u64().unwrap() <= collapsed as u64, "{pal}");
+    }
+}

@@ -101,6 +101,20 @@ pub(crate) fn chart_areas(labels: &[u32], area: &[f64]) -> (Vec<f64>, f64) {
     (sums, total)
 }
 
+/// The charts whose faces cover some UV area (the sum of their faces' absolute areas at least
+/// [`DEGEN_AREA_TEXELS`](super::DEGEN_AREA_TEXELS), as evaluate.py's `charts_edge_with_area`),
+/// and the faces of the other charts: the point faces, which show one colour each.
+pub(crate) fn charts_with_area(labels: &[u32], area: &[f64]) -> (u64, u64) {
+    let mut sums = vec![0.0f64; labels.len()];
+    for (&l, &a) in labels.iter().zip(area) {
+        sums[l as usize] += a.abs();
+    }
+    let has_area = |l: u32| sums[l as usize] >= super::DEGEN_AREA_TEXELS;
+    let charts = labels.iter().enumerate().filter(|&(i, &l)| l as usize == i && has_area(l));
+    let points = labels.iter().filter(|&&l| !has_area(l)).count();
+    (charts.count() as u64, points as u64)
+}
+
 /// numpy's `sign`: -1, 0 or 1, NaN for NaN.
 #[inline]
 fn sign(x: f64) -> f64 {

@@ -92,8 +92,13 @@ pub struct AtlasStats {
     pub vertex_replication: Option<f64>,
     /// Components of faces sharing a UV vertex.
     pub charts: u64,
-    /// Components of faces sharing a UV edge: the chart count.
+    /// Components of faces sharing a UV edge.
     pub charts_edge: u64,
+    /// Of those, the charts that cover some UV area: the chart count.
+    pub charts_edge_with_area: u64,
+    /// Faces of the other edge charts (no UV area: a point or a line of the texture each), counted
+    /// apart from the charts.
+    pub point_faces: u64,
     /// Components of faces sharing a UV record (`UvId`) of the model.
     pub charts_by_index: u64,
     /// Manifold mesh edges (exactly two faces) whose two sides use different UV vertices.
@@ -169,6 +174,7 @@ pub fn atlas_stats(
     let mut edges = charts::uv_edges(&prep, &uvv.uvid, uvv.count);
     let labels = edges.charts.flatten();
     let charts_edge = labels.iter().enumerate().filter(|&(i, &r)| r as usize == i).count() as u64;
+    let (charts_edge_with_area, point_faces) = charts::charts_with_area(&labels, &fp.area);
     let (chart_sums, uv_area_charts) = charts::chart_areas(&labels, &fp.area);
     let uv_flipped_faces = charts::flipped_faces(&labels, &chart_sums, &fp.area, &fp.flags);
     drop(chart_sums);
@@ -221,6 +227,8 @@ pub fn atlas_stats(
         vertex_replication: (vertices_3d > 0).then(|| uvv.count as f64 / vertices_3d as f64),
         charts: uvv.charts,
         charts_edge,
+        charts_edge_with_area,
+        point_faces,
         charts_by_index,
         uv_seam_edges_3d: mesh.seams,
         uv_crack_edges: mesh.cracks.len() as u64,

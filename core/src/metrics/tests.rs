@@ -193,6 +193,8 @@ fn zero_area_and_degenerate_faces() {
     assert_eq!(s.uv_zero_area_3d_faces, 1);
     assert_eq!(s.uv_degenerate_faces, 1);
     assert_eq!(s.area_3d, 0.5);
+    // Two edge charts: one with UV area, and the point face counted apart.
+    assert_eq!((s.charts_edge, s.charts_edge_with_area, s.point_faces), (2, 1, 1));
 }
 
 #[test]

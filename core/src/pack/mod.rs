@@ -13,6 +13,7 @@ mod anchor;
 mod footprint;
 mod frame;
 mod layout;
+pub mod palette;
 mod place;
 mod sheet_size;
 mod texel_clash;
@@ -105,7 +106,9 @@ impl Default for PackOptions {
 /// Figures of a packing, for the run report.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct PackReport {
-    /// Charts packed (charts with at least one face).
+    /// Footprints the packer placed (its charts with at least one face). Not the atlas's chart
+    /// count: a footprint may hold several edge-connected charts, and the palette's faces have
+    /// none; the output's `charts_edge_with_area` and `point_faces` count those.
     pub charts: usize,
     /// Charts with a grid-preserving anchor.
     pub anchored_charts: usize,
@@ -137,6 +140,9 @@ pub struct PackReport {
     pub faces_detached: usize,
     /// Rigid groups made charts of their own before packing (see `split_rigid_ratio`).
     pub rigid_split: RigidSplitReport,
+    /// Faces without input UV area, kept apart from the charts on blocks of their own colour
+    /// (see `palette`).
+    pub palette: palette::PaletteReport,
     /// Cells of all footprints (padding included).
     pub footprint_cells: u64,
     /// UV area of all packed faces over `texels`.

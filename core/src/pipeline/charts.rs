@@ -2,10 +2,13 @@
 //! 3-D areas, and the changes of topology made on the way (the rigid split, the untangle, the
 //! detachment of clashing faces), handing out the packing's [`LayoutInput`] view.
 
+use std::collections::{HashMap, HashSet};
+
 use super::PipelineError;
 use crate::defrag::{MergedLayout, UntangleOptions, UntangleReport, untangle_charts};
 use crate::index::NONE;
 use crate::model::Model;
+use crate::pack::palette::{self, PaletteFace};
 use crate::pack::{LayoutInput, PackOptions, PackedLayout, RigidSplitReport, anchor_faces};
 use crate::plugin::LocalSolver;
 use crate::topology::Topology;
@@ -86,6 +89,63 @@ impl PackingCharts {
     ) -> Result<UntangleReport, PipelineError> {
         let anchored = anchor_faces(&self.layout_input(topo, input_sheet_sizes), pack)?;
         Ok(untangle_charts(topo, &self.face_chart, self.n, &anchored, solvers, opts))
+    }
+
+    /// Takes the faces without input UV area that no face with area holds by an input UV edge out
+    /// of their charts, for the palette (see `pack::palette`); returns them in face order with
+    /// the number of them that span a segment rather than a point.
+    ///
+    /// A face that shares an input UV edge with a face of positive area is a sliver inside a
+    /// chart: it lies on that chart's texels wherever the chart goes, so its colour is the
+    /// chart's along it, and cutting it out would only open a seam. The others are the points
+    /// (and lines) exporters collapse unseen faces onto, which show one input colour that no
+    /// chart around their new place holds.
+    pub fn take_palette_faces(&mut self, topo: &Topology) -> (Vec<PaletteFace>, usize) {
+        let tri = |f: usize| [0, 1, 2].map(|k| topo.orig_uv[3 * f + k]);
+        let candidate = |f: usize| self.face_chart[f] != u32::MAX && palette::zero_uv_area(tri(f));
+        // Input UV vertices of the candidates' corners, keyed as the input welds them.
+        let key = |c: usize| {
+            let uv = topo.orig_uv[c];
+            (topo.corner_pos[c].0, topo.face_sheet[c / 3], uv[0].to_bits(), uv[1].to_bits())
+        };
+        let mut ids: HashMap<(u32, u32, u64, u64), u32> = HashMap::new();
+        for f in (0..self.face_chart.len()).filter(|&f| candidate(f)) {
+            for c in 3 * f..3 * f + 3 {
+                let next = ids.len() as u32;
+                ids.entry(key(c)).or_insert(next);
+            }
+        }
+        // Input UV edges between those vertices that some face with area has.
+        let mut held: HashSet<(u32, u32)> = HashSet::new();
+        for f in (0..self.face_chart.len()).filter(|&f| self.face_chart[f] != u32::MAX) {
+            if candidate(f) {
+                continue;
+            }
+            let corners = [0, 1, 2].map(|k| ids.get(&key(3 * f + k)).copied());
+            for k in 0..3 {
+                if let (Some(a), Some(b)) = (corners[k], corners[(k + 1) % 3]) {
+                    held.insert((a.min(b), a.max(b)));
+                }
+            }
+        }
+        let mut out = Vec::new();
+        let mut segments = 0;
+        let candidates: Vec<usize> = (0..self.face_chart.len()).filter(|&f| candidate(f)).collect();
+        for f in candidates {
+            let v = [0, 1, 2].map(|k| ids[&key(3 * f + k)]);
+            if (0..3).any(|k| held.contains(&(v[k].min(v[(k + 1) % 3]), v[k].max(v[(k + 1) % 3]))))
+            {
+                continue;
+            }
+            let t = tri(f);
+            segments += usize::from(t.iter().any(|p| p != &t[0]));
+            let point = palette::colour_point(t);
+            out.push(PaletteFace { face: f as u32, src_sheet: topo.face_sheet[f], point });
+        }
+        for p in &out {
+            self.face_chart[p.face as usize] = u32::MAX;
+        }
+        (out, segments)
     }
 
     /// The last resort for texel clashes the sub-texel moves could not separate: one face of

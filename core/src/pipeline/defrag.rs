@@ -18,6 +18,7 @@ use crate::defrag::{
 };
 use crate::metrics::{AtlasStats, StatsOptions, atlas_stats};
 use crate::model::Model;
+use crate::pack::palette::{self, Palette, PaletteFace, PaletteSpace};
 use crate::pack::{PackOptions, PackReport, PackedLayout, max_sheet_size, pack_layout};
 use crate::plugin::{LocalSolver, MergeScorer, Packer, Params, Registry};
 use crate::texture::ImageFormat;
@@ -407,13 +408,14 @@ impl Run<'_> {
     ) -> Result<Emitted, PipelineError> {
         progress(DefragStage::Pack);
         let t = Instant::now();
-        let (packed, untangle) =
+        let (packed, palette, untangle) =
             pack_stage(topo, charts, self.loaded, self.plugins, self.cfg, border_len)?;
         times.pack_ms = ms(t);
         self.ctx.checkpoint()?;
 
         progress(DefragStage::Textures);
         let t = Instant::now();
+        let packed = (packed, palette);
         let emitted =
             texture_stage(topo, charts, packed, self.loaded, self.cfg, self.ctx, untangle)?;
         times.textures_ms = ms(t);
@@ -562,8 +564,9 @@ fn pack_stage(
     plugins: &mut Plugins,
     cfg: &DefragConfig,
     border_len: f64,
-) -> Result<(PackedLayout, Option<UntangleReport>), PipelineError> {
+) -> Result<(PackedLayout, Palette, Option<UntangleReport>), PipelineError> {
     let sizes = &loaded.input_sheet_sizes;
+    let (palette_faces, segments) = charts.take_palette_faces(topo);
     let rigid_split = if cfg.pack.split_rigid_ratio > 0.0 {
         Some(charts.split_rigid(topo, sizes, &cfg.pack, border_len)?)
     } else {
@@ -585,7 +588,51 @@ fn pack_stage(
     if let Some(split) = rigid_split {
         packed.report.rigid_split = split;
     }
-    Ok((packed, untangled))
+    let format = output_format(cfg, &loaded.model)?;
+    let space = PaletteSpace {
+        side: palette::block_side(format, cfg.jpeg_quality, cfg.lossy_webp),
+        padding: cfg.pack.padding,
+        max_sheet_size: packed.report.max_sheet_size,
+    };
+    let palette = place_palette_blocks(topo, charts, &mut packed, &palette_faces, segments, space);
+    Ok((packed, palette, untangled))
+}
+
+/// Places the palette (see `pack::palette`) around the packed charts, and brings the packing's
+/// sheet figures up to date with the sheets it widened or added.
+fn place_palette_blocks(
+    topo: &Topology,
+    charts: &PackingCharts,
+    packed: &mut PackedLayout,
+    faces: &[PaletteFace],
+    segments: usize,
+    space: PaletteSpace,
+) -> Palette {
+    let tris = (0..charts.face_chart.len())
+        .filter(|&f| charts.face_chart[f] != u32::MAX && packed.face_sheet[f] != u32::MAX)
+        .map(|f| {
+            let tri = [0, 1, 2].map(|k| packed.vert_uv[topo.corner_uv[3 * f + k].idx()]);
+            (packed.face_sheet[f], tri)
+        });
+    let palette = palette::place_palette(faces, segments, tris, &mut packed.sheet_sizes, space);
+    let r = &mut packed.report;
+    r.palette = palette.report;
+    if palette.report.texels_added > 0 {
+        let before = r.texels;
+        r.texels += palette.report.texels_added;
+        r.sheets = packed.sheet_sizes.len();
+        r.occupancy *= before as f64 / r.texels as f64;
+    }
+    palette
+}
+
+/// The format of the output sheets: the one asked for, else the first input sheet's.
+fn output_format(cfg: &DefragConfig, model: &Model) -> Result<ImageFormat, PipelineError> {
+    Ok(match (cfg.texture_format, model.sheets.first()) {
+        (Some(f), _) => f,
+        (None, Some(s)) => ImageFormat::of_source(&s.image)?,
+        (None, None) => ImageFormat::Png,
+    })
 }
 
 /// Folds the report of the packing before the clash detachment into the final one.
@@ -609,21 +656,17 @@ fn add_first_attempt(r: &mut PackReport, first: &PackReport, detached: usize) {
 fn texture_stage(
     topo: &Topology,
     charts: &PackingCharts,
-    packed: PackedLayout,
+    (packed, palette): (PackedLayout, Palette),
     loaded: &mut Loaded,
     cfg: &DefragConfig,
     ctx: &RunContext,
     untangle: Option<UntangleReport>,
 ) -> Result<Emitted, PipelineError> {
     let decoding = std::mem::take(&mut loaded.decoding);
-    let format = match (cfg.texture_format, loaded.model.sheets.first()) {
-        (Some(f), _) => f,
-        (None, Some(s)) => ImageFormat::of_source(&s.image)?,
-        (None, None) => ImageFormat::Png,
-    };
+    let format = output_format(cfg, &loaded.model)?;
     let (sheets, resample) =
-        synthesize(topo, &charts.face_chart, &packed, decoding, format, cfg, ctx)?;
-    let model = packed_model(&loaded.model, topo, &charts.face_chart, &packed, &sheets);
+        synthesize(topo, &charts.face_chart, &packed, &palette, decoding, format, cfg, ctx)?;
+    let model = packed_model(&loaded.model, topo, &charts.face_chart, &packed, &palette, &sheets);
     Ok(Emitted {
         model,
         pack: Some(packed.report),

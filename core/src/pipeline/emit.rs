@@ -11,6 +11,7 @@ use crate::index::NONE;
 use crate::index::{MaterialId, UvId};
 use crate::model::Model;
 use crate::pack::PackedLayout;
+use crate::pack::palette::Palette;
 use crate::texture::coords::texel_to_uv;
 use crate::texture::encode::EncodeOptions;
 use crate::texture::gutter::MAX_RADIUS;
@@ -26,10 +27,12 @@ fn ms(t: Instant) -> f64 {
 /// Takes the input sheets from `decoding`, resamples the packed layout and writes the output
 /// sheets.
 /// Returns the written sheet paths (in output sheet order) and the resample report.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn synthesize(
     t: &Topology,
     face_chart: &[u32],
     packed: &PackedLayout,
+    palette: &Palette,
     decoding: DecodeAhead,
     format: ImageFormat,
     cfg: &DefragConfig,
@@ -57,6 +60,7 @@ pub(super) fn synthesize(
             exact,
         });
     }
+    mappings.extend(palette.mappings(&packed.sheet_sizes));
     // Each input sheet is decoded once into a disk-backed tile store (deleted on drop), by the
     // decode started after loading.
     let decoded = decoding.finish()?;
@@ -97,6 +101,7 @@ pub(super) fn packed_model(
     t: &Topology,
     face_chart: &[u32],
     packed: &PackedLayout,
+    palette: &Palette,
     sheet_paths: &[PathBuf],
 ) -> Model {
     let mut out = model.clone();
@@ -104,7 +109,21 @@ pub(super) fn packed_model(
     let mut uvs: Vec<[f64; 2]> = Vec::with_capacity(t.uv_pos.len());
     let mut new_id = vec![NONE; t.uv_pos.len()];
     let mut zero_uv: Option<UvId> = None;
+    // One UV record per palette block, at its centre.
+    let mut block_uv = vec![u32::MAX; palette.blocks.len()];
+    let mut on_palette = palette.face_block.iter().peekable();
     for (f, face) in out.faces.iter_mut().enumerate() {
+        if let Some(&(_, b)) = on_palette.next_if(|(pf, _)| *pf as usize == f) {
+            let sheet = palette.blocks[b as usize].sheet;
+            let (w, h) = packed.sheet_sizes[sheet as usize];
+            if block_uv[b as usize] == u32::MAX {
+                block_uv[b as usize] = uvs.len() as u32;
+                uvs.push(texel_to_uv(palette.centre(b, h), w, h));
+            }
+            face.uv = Some([UvId(block_uv[b as usize]); 3]);
+            face.material = Some(MaterialId::from_usize(sheet as usize));
+            continue;
+        }
         let chart = face_chart[f];
         if chart == NONE || out.sheets.is_empty() {
             // Left out of packing: faces without UVs keep none; the others get UV (0, 0) on

@@ -20,18 +20,22 @@ pub struct ColourStats {
     pub psnr_db: Option<f64>,
 }
 
-/// Colour fidelity of every sample, and of the preserved and resampled faces apart.
+/// Colour fidelity of every sample, and of the preserved and resampled faces apart, and of the
+/// faces whose input UV triangle has no area (a point or a line of the input texture: the
+/// evaluator's `zero_uv_area`, which the resampled figure includes).
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
 pub struct ColourFidelity {
     pub all: ColourStats,
     pub preserved: ColourStats,
     pub resampled: ColourStats,
+    pub zero_uv_area: ColourStats,
 }
 
+/// Sums of squared differences and sample counts of the four groups of [`ColourFidelity`].
 #[derive(Clone, Copy, Default)]
 struct Sums {
-    sq: [f64; 3],
-    n: [u64; 3],
+    sq: [f64; 4],
+    n: [u64; 4],
 }
 
 /// Bilinear 8-bit RGB at texel-space point `p` of `store` (the evaluator's `bilinear`).
@@ -111,13 +115,17 @@ pub fn fidelity(
                     s.sq[g] += d;
                     s.n[g] += 1;
                 }
+                if before.is_point(f) {
+                    s.sq[3] += d;
+                    s.n[3] += 1;
+                }
             }
             s
         })
         .collect();
     let mut t = Sums::default();
     for s in &sums {
-        for g in 0..3 {
+        for g in 0..4 {
             t.sq[g] += s.sq[g];
             t.n[g] += s.n[g];
         }
@@ -126,5 +134,6 @@ pub fn fidelity(
         all: stats(t.sq[0], t.n[0]),
         preserved: stats(t.sq[1], t.n[1]),
         resampled: stats(t.sq[2], t.n[2]),
+        zero_uv_area: stats(t.sq[3], t.n[3]),
     }
 }

@@ -16,13 +16,15 @@ pub struct SideFigures {
     /// Size of every sheet whose size is known.
     pub sheet_sizes: Vec<(u32, u32)>,
     pub texels: u64,
+    /// Edge-connected charts that cover some UV area.
     pub charts: u64,
     pub uv_border_texels: f64,
     pub solidity: Option<f64>,
     pub vertex_replication: Option<f64>,
     pub flipped_faces: u64,
     pub overlap_texels: Option<u64>,
-    /// Textured faces with no UV area.
+    /// Faces of the edge charts without UV area (a point or a line of the texture each), counted
+    /// apart from the charts.
     pub point_faces: u64,
     pub faces_without_texture: u64,
 }
@@ -36,13 +38,13 @@ impl SideFigures {
             faces: s.faces,
             sheet_sizes,
             texels: s.total_texels,
-            charts: s.charts_edge,
+            charts: s.charts_edge_with_area,
             uv_border_texels: s.uv_boundary_length_texels,
             solidity: s.atlas_solidity,
             vertex_replication: s.vertex_replication,
             flipped_faces: s.uv_flipped_faces,
             overlap_texels: s.overlap_texels,
-            point_faces: s.uv_degenerate_faces,
+            point_faces: s.point_faces,
             faces_without_texture: s.faces_without_texture,
         }
     }
@@ -136,10 +138,16 @@ pub fn headline(f: &Figures) -> String {
             }
             parts.push(s);
             parts.push(format!("charts {} → {}", b.charts, a.charts));
+            if b.point_faces + a.point_faces > 0 {
+                parts.push(format!("point faces {} → {}", b.point_faces, a.point_faces));
+            }
         }
         None => {
             parts.push(format!("{} ({} texels)", fmt_sheets(&a.sheet_sizes), fmt_count(a.texels)));
             parts.push(format!("{} charts", a.charts));
+            if a.point_faces > 0 {
+                parts.push(format!("{} point faces", a.point_faces));
+            }
         }
     }
     if let Some(p) = f.preserved_area_fraction {
@@ -196,7 +204,7 @@ pub const EXPLANATIONS: &[(&str, &str)] = &[
     ),
     (
         "Charts",
-        "the pieces the texture is cut into; fewer means fewer seams, less colour bleeding at seams and less space lost to gutters.",
+        "the pieces of UV area the texture is cut into (edge-connected); fewer means fewer seams, less colour bleeding at seams and less space lost to gutters. Point faces (no UV area: a point or a line of the texture, one colour each) are counted apart.",
     ),
     (
         "Copied texel for texel",

@@ -135,7 +135,7 @@ fn figures_table(h: &mut String, f: &Figures) {
     *h += "<h2>Figures</h2>\n<table><tr><th></th><th>before</th><th>after</th></tr>\n";
     row(h, "sheets", &|s| fmt_sheets(&s.sheet_sizes));
     row(h, "texels", &|s| fmt_count(s.texels));
-    row(h, "charts", &|s| s.charts.to_string());
+    row(h, "charts with area", &|s| s.charts.to_string());
     row(h, "UV border (texels)", &|s| format!("{:.0}", s.uv_border_texels));
     row(h, "solidity", &|s| opt(s.solidity, 4));
     row(h, "vertex replication", &|s| opt(s.vertex_replication, 3));
@@ -143,7 +143,7 @@ fn figures_table(h: &mut String, f: &Figures) {
     row(h, "overlapping texels", &|s| {
         s.overlap_texels.map_or("not measured".into(), |x| x.to_string())
     });
-    row(h, "faces with no UV area", &|s| s.point_faces.to_string());
+    row(h, "point faces (no UV area)", &|s| s.point_faces.to_string());
     *h += "</table>\n<table>\n";
     let mut line = |name: &str, value: String| {
         let _ = writeln!(h, "<tr><td>{}</td><td>{}</td></tr>", esc(name), esc(&value));
@@ -163,6 +163,7 @@ fn figures_table(h: &mut String, f: &Figures) {
         line("colour PSNR, all", db(&c.all));
         line("colour PSNR, copied faces", db(&c.preserved));
         line("colour PSNR, resampled faces", db(&c.resampled));
+        line("colour PSNR, faces with no input UV area", db(&c.zero_uv_area));
     }
     if let Some(l) = f.faces_lost {
         line("faces that lost their texture", l.to_string());

@@ -137,9 +137,12 @@ fn print_summary(report: &DefragReport, quiet: bool) {
         report.times.total_ms / 1e3
     );
     if let Some(p) = &report.pack {
+        let out = &report.output_stats;
         eprintln!(
-            "  packed {} charts on {} sheets, occupancy {:.0}%, solidity {:.4} -> {:.4}",
-            p.charts,
+            "  packed {} charts with area and {} point faces ({} colour blocks) on {} sheets, occupancy {:.0}%, solidity {:.4} -> {:.4}",
+            out.charts_edge_with_area,
+            out.point_faces,
+            p.palette.blocks,
             p.sheets,
             100.0 * p.occupancy,
             report.input_stats.atlas_solidity.unwrap_or(0.0),

@@ -34,7 +34,11 @@ pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
     println!("  input  {}", written.model.display());
     println!("  output {}", output.display());
     println!("  {:<22} {:>12} {:>12}", "", "before", "after");
-    println!("  {:<22} {:>12} {:>12}", "charts", a.charts_edge, b.charts_edge);
+    println!(
+        "  {:<22} {:>12} {:>12}",
+        "charts with area", a.charts_edge_with_area, b.charts_edge_with_area
+    );
+    println!("  {:<22} {:>12} {:>12}", "point faces", a.point_faces, b.point_faces);
     println!(
         "  {:<22} {:>12} {:>12}",
         "solidity",

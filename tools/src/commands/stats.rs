@@ -31,7 +31,8 @@ pub fn human(name: &str, s: &AtlasStats) -> String {
     line("3D vertices", s.vertices_3d.to_string());
     line("UV vertices", s.uv_vertices.to_string());
     line("vertex replication", opt(s.vertex_replication, 3));
-    line("charts", s.charts_edge.to_string());
+    line("charts with area", s.charts_edge_with_area.to_string());
+    line("point faces", s.point_faces.to_string());
     line("UV border (texels)", format!("{:.1}", s.uv_boundary_length_texels));
     line("UV area (texels)", format!("{:.1}", s.uv_area_texels));
     line("atlas solidity", opt(s.atlas_solidity, 4));

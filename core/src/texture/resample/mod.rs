@@ -86,6 +86,10 @@ pub struct ResampleReport {
     /// Texel writes that sampled the input bilinearly (includes texels of grid-preserved faces
     /// whose source texel lies outside the input sheet).
     pub texels_sampled: u64,
+    /// Texels outside every face copied from the input because bilinear sampling of a
+    /// grid-preserved face reads them (its ring; counted in `texels_written`, not in
+    /// `texels_copied`).
+    pub texels_ring: u64,
     /// Writes over a texel an earlier face already wrote (overlapping output triangles).
     pub texels_overdrawn: u64,
     /// Texels filled by gutter dilation.
@@ -174,14 +178,14 @@ fn plan_face(
 
 /// The tiles `[tx0, tx1] × [ty0, ty1]` the bounding box of an output triangle overlaps, or `None`
 /// when it misses the sheet.
-fn tile_span(tri: &[[f64; 2]; 3], w: u32, h: u32) -> Option<(u32, u32, u32, u32)> {
+fn tile_span(tri: &[[f64; 2]; 3], w: u32, h: u32, margin: f64) -> Option<(u32, u32, u32, u32)> {
     let (mut x0, mut x1, mut y0, mut y1) =
         (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
     for p in tri {
-        x0 = x0.min(p[0]);
-        x1 = x1.max(p[0]);
-        y0 = y0.min(p[1]);
-        y1 = y1.max(p[1]);
+        x0 = x0.min(p[0] - margin);
+        x1 = x1.max(p[0] + margin);
+        y0 = y0.min(p[1] - margin);
+        y1 = y1.max(p[1] + margin);
     }
     let (fw, fh) = (f64::from(w), f64::from(h));
     if w == 0 || h == 0 || !(x1 >= 0.0 && y1 >= 0.0 && x0 <= fw && y0 <= fh) {
@@ -214,7 +218,9 @@ impl Buckets {
             let s = f.dst_sheet as usize;
             let (w, h) = out_sizes[s];
             let tiles_x = w.div_ceil(TILE) as usize;
-            if let Some((tx0, tx1, ty0, ty1)) = tile_span(&f.dst, w, h) {
+            // A grid-preserved face also paints its ring, up to two texels beyond its box.
+            let margin = if f.exact.is_some() { 2.0 } else { 0.0 };
+            if let Some((tx0, tx1, ty0, ty1)) = tile_span(&f.dst, w, h, margin) {
                 for ty in ty0..=ty1 {
                     for tx in tx0..=tx1 {
                         visit(sheet_base[s] + ty as usize * tiles_x + tx as usize);
@@ -357,7 +363,8 @@ pub fn resample_sheets(
         report.texels_written += written;
         report.texels_copied += counts.copied;
         report.texels_sampled += counts.sampled;
-        report.texels_overdrawn += counts.copied + counts.sampled - written;
+        report.texels_ring += counts.ring;
+        report.texels_overdrawn += counts.copied + counts.sampled + counts.ring - written;
         report.ms_raster += ms_since(t);
 
         let t = Instant::now();

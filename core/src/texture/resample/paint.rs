@@ -16,12 +16,38 @@ use crate::texture::{PixelFormat, TileStore};
 pub(super) struct Counts {
     pub copied: u64,
     pub sampled: u64,
+    /// Ring texels of grid-preserved faces copied from the input (see [`Context::paint_rings`]).
+    pub ring: u64,
 }
 
 impl Counts {
     pub(super) fn add(a: Self, b: Self) -> Self {
-        Self { copied: a.copied + b.copied, sampled: a.sampled + b.sampled }
+        Self { copied: a.copied + b.copied, sampled: a.sampled + b.sampled, ring: a.ring + b.ring }
     }
+}
+
+/// Whether the open square of half side 1 around texel centre `c` meets triangle `t`: whether
+/// bilinear sampling at some point of `t` reads the texel (separating axes: the square's two and
+/// the triangle's three edge normals).
+fn bilinear_reach(c: [f64; 2], t: &[[f64; 2]; 3]) -> bool {
+    for axis in 0..2 {
+        let lo = t.iter().map(|p| p[axis]).fold(f64::INFINITY, f64::min);
+        let hi = t.iter().map(|p| p[axis]).fold(f64::NEG_INFINITY, f64::max);
+        if lo >= c[axis] + 1.0 || hi <= c[axis] - 1.0 {
+            return false;
+        }
+    }
+    for k in 0..3 {
+        let (a, b) = (t[k], t[(k + 1) % 3]);
+        let n = [b[1] - a[1], a[0] - b[0]];
+        let dot = |p: [f64; 2]| n[0] * p[0] + n[1] * p[1];
+        let (tri_lo, tri_hi) = (dot(a).min(dot(t[(k + 2) % 3])), dot(a).max(dot(t[(k + 2) % 3])));
+        let (centre, reach) = (dot(c), n[0].abs() + n[1].abs());
+        if tri_lo >= centre + reach || tri_hi <= centre - reach {
+            return false;
+        }
+    }
+    true
 }
 
 /// What every tile worker reads: the inputs, the faces and their validated plans.
@@ -99,7 +125,57 @@ impl Context<'_> {
                 }
             });
         }
+        self.paint_rings(px, bits, rect, dst_h, bucket, &mut counts);
         counts
+    }
+
+    /// Copies the ring of every grid-preserved face from the input: the texels no face covers
+    /// whose centres lie within one texel of the face, which bilinear sampling (and so every
+    /// renderer) reads at the face's edge. Dilation would fill them with the nearest written
+    /// colour; copied, the preserved face renders exactly as in the input. A ring texel that
+    /// another face covers keeps that face's colour, so a ring is copied only where the chart
+    /// ends (into its padding), never inside a chart. Faces in increasing order, the first
+    /// ring to claim a texel wins, so the result is the same whatever the thread count.
+    fn paint_rings(
+        &self,
+        px: &mut [u8],
+        bits: &mut [u64],
+        rect: PixelRect,
+        dst_h: u32,
+        bucket: &[u32],
+        counts: &mut Counts,
+    ) {
+        let bpp = self.format.bytes_per_pixel();
+        let mut value = [0.0f64; 4];
+        for &k in bucket {
+            let (f, plan) = (&self.faces[k as usize], self.plans[k as usize]);
+            let Some(g) = plan.exact else { continue };
+            let src = self.inputs[f.src_sheet as usize];
+            let conv = &self.convs[f.src_sheet as usize];
+            let Some([i0, i1, j0, j1]) = ring_span(&f.dst, dst_h, rect) else { continue };
+            for j in j0..j1 {
+                for i in i0..i1 {
+                    let (w, m) = tile_bit(i - rect.x0, j - rect.y0);
+                    let c = [f64::from(i) + 0.5, f64::from(dst_h) - f64::from(j) - 0.5];
+                    if bits[w] & m != 0 || !bilinear_reach(c, &f.dst) {
+                        continue;
+                    }
+                    let Some((x, y)) = g.source_pixel(i, j, dst_h, src.width(), src.height())
+                    else {
+                        continue;
+                    };
+                    let o = ((j - rect.y0) * TILE + i - rect.x0) as usize * bpp;
+                    if conv.is_identity() {
+                        copy_pixel(&mut px[o..o + bpp], src.pixel(x, y), bpp);
+                    } else {
+                        conv.read(src.pixel(x, y), &mut value);
+                        store_pixel(&mut px[o..o + bpp], self.format, &value);
+                    }
+                    bits[w] |= m;
+                    counts.ring += 1;
+                }
+            }
+        }
     }
 
     /// One texel of face `f` at output pixel `(i, j)` with barycentrics `b`: verbatim (converted
@@ -147,6 +223,20 @@ impl Context<'_> {
             }
         }
     }
+}
+
+/// The pixels `[i0, i1) × [j0, j1)` of `rect` that the bounding box of output triangle `t`, grown
+/// by one texel, touches; `None` when it misses `rect`.
+fn ring_span(t: &[[f64; 2]; 3], dst_h: u32, rect: PixelRect) -> Option<[u32; 4]> {
+    let lo = |a: usize| t.iter().map(|p| p[a]).fold(f64::INFINITY, f64::min);
+    let hi = |a: usize| t.iter().map(|p| p[a]).fold(f64::NEG_INFINITY, f64::max);
+    let h = f64::from(dst_h);
+    let clamp = |v: f64, a: u32, b: u32| v.clamp(f64::from(a), f64::from(b)) as u32;
+    let i0 = clamp((lo(0) - 1.5).floor(), rect.x0, rect.x1);
+    let i1 = clamp((hi(0) + 1.5).ceil(), rect.x0, rect.x1);
+    let j0 = clamp((h - hi(1) - 1.5).floor(), rect.y0, rect.y1);
+    let j1 = clamp((h - lo(1) + 1.5).ceil(), rect.y0, rect.y1);
+    (i0 < i1 && j0 < j1).then_some([i0, i1, j0, j1])
 }
 
 /// Copies `n` input pixels into `out`, starting at input pixel `start` and moving by `step` per

@@ -71,6 +71,17 @@ fn src_point(src: &[[f64; 2]; 3], b: [f64; 3]) -> [f64; 2] {
     ]
 }
 
+/// The grid transform of `mirror` and `k` quarter turns with the integer offset that places
+/// `src` inside the output sheets of the tests below.
+fn placed_inside(mirror: bool, k: u8, src: &[[f64; 2]; 3]) -> GridTransform {
+    let mut g = GridTransform { mirror, quarter_turns: k, offset: [0, 0] };
+    let lin: Vec<[f64; 2]> = src.iter().map(|&p| g.linear(p)).collect();
+    let minx = lin.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min);
+    let miny = lin.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min);
+    g.offset = [(5.0 - minx).ceil() as i64 + 3, (2.0 - miny).ceil() as i64 + 11];
+    g
+}
+
 #[test]
 fn grid_preserved_faces_are_bit_exact_for_every_mirror_and_turn() {
     let dir = tempfile::tempdir().unwrap();
@@ -87,12 +98,7 @@ fn grid_preserved_faces_are_bit_exact_for_every_mirror_and_turn() {
         let src = [[3.25, 4.0], [290.5, 17.75], [40.0, 271.125]];
         for mirror in [false, true] {
             for k in 0..4u8 {
-                let mut g = GridTransform { mirror, quarter_turns: k, offset: [0, 0] };
-                // Integer offset placing the image inside the output sheet.
-                let lin: Vec<[f64; 2]> = src.iter().map(|&p| g.linear(p)).collect();
-                let minx = lin.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min);
-                let miny = lin.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min);
-                g.offset = [(5.0 - minx).ceil() as i64 + 3, (2.0 - miny).ceil() as i64 + 11];
+                let g = placed_inside(mirror, k, &src);
                 let dst = src.map(|p| g.apply(p));
                 let face = FaceMapping { dst_sheet: 0, dst, src_sheet: 0, src, exact: Some(g) };
                 let out =
@@ -251,7 +257,9 @@ fn triangles_sharing_an_edge_leave_no_gap_and_write_no_texel_twice() {
     let out =
         resample_sheets(&[&input], &faces, &[(400, 400)], &opts(dir.path(), 0, false)).unwrap();
     let r = &out.report;
-    assert_eq!(r.texels_written, 130 * 90, "every texel of the square, no gap");
+    // The preserved half's ring outside the square is copied too (see `paint_rings`).
+    assert!(r.texels_ring > 0, "{r:?}");
+    assert_eq!(r.texels_written, 130 * 90 + r.texels_ring, "every texel of the square, no gap");
     assert_eq!(r.texels_copied + r.texels_sampled, 130 * 90);
     assert_eq!(r.texels_overdrawn, 0);
     assert!(r.texels_copied > 0 && r.texels_sampled > 0);
@@ -513,4 +521,41 @@ fn bad_mappings_and_options_are_errors() {
     let far = [[-50.0, -50.0], [-40.0, -50.0], [-50.0, -40.0]];
     let out = run(&[FaceMapping { dst: far, src: far, ..good }], &[(16, 16)], &o).unwrap();
     assert_eq!((out.report.texels_written, out.report.empty_sheets), (0, 1));
+}
+
+#[test]
+fn bilinear_sampling_of_a_grid_preserved_face_reads_only_input_texels() {
+    let dir = tempfile::tempdir().unwrap();
+    let format = PixelFormat::RGBA8;
+    let (sw, sh, ow, oh) = (300, 280, 330, 320);
+    let input = random_store(dir.path(), sw, sh, format, 11);
+    let src = [[3.25, 4.0], [290.5, 17.75], [40.0, 271.125]];
+    for (mirror, k) in [(false, 0u8), (true, 1), (false, 3)] {
+        let g = placed_inside(mirror, k, &src);
+        let dst = src.map(|p| g.apply(p));
+        let face = FaceMapping { dst_sheet: 0, dst, src_sheet: 0, src, exact: Some(g) };
+        let out =
+            resample_sheets(&[&input], &[face], &[(ow, oh)], &opts(dir.path(), 3, true)).unwrap();
+        assert!(out.report.texels_ring > 100, "{:?}", out.report);
+        // Every texel that bilinear sampling at points inside the face reads (brute force over
+        // a dense grid of interior points) is the input's texel under the grid map.
+        let sheet = &out.sheets[0];
+        let n = 400;
+        for a in 1..n {
+            for b in 1..n - a {
+                let (u, v) = ((a as f64 + 0.37) / n as f64, (b as f64 + 0.21) / n as f64);
+                let w = [1.0 - u - v, u, v];
+                if w[0] <= 0.0 {
+                    continue;
+                }
+                let p = [0, 1].map(|c| w[0] * dst[0][c] + w[1] * dst[1][c] + w[2] * dst[2][c]);
+                let x = (p[0] - 0.5).floor() as u32;
+                let y = (f64::from(oh) - p[1] - 0.5).floor() as u32;
+                for (i, j) in [(x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1)] {
+                    let (si, sj) = g.source_pixel(i, j, oh, sw, sh).unwrap();
+                    assert_eq!(sheet.pixel(i, j), input.pixel(si, sj), "{g:?} ({i},{j})");
+                }
+            }
+        }
+    }
 }
