@@ -119,6 +119,9 @@ pub struct PaletteSpace {
     pub padding: u32,
     /// Largest output sheet.
     pub max_sheet_size: (u32, u32),
+    /// Whether the last sheet may be widened for blocks that find no free cell; not when the
+    /// user fixed every sheet's size (`--sheet-size`): new sheets open instead.
+    pub may_widen: bool,
 }
 
 impl Palette {
@@ -326,6 +329,7 @@ fn assign_cells(
     let last = grids.len().saturating_sub(1) as u32;
     if let (Some(grid), Some(size)) = (grids.last_mut(), sheet_sizes.last_mut())
         && slots.len() < count
+        && space.may_widen
     {
         let s = last;
         let first = size.0 / side;
@@ -373,7 +377,7 @@ mod tests {
     use crate::texture::raster::{PixelRect, TriangleRaster};
 
     fn space(side: u32, max: (u32, u32)) -> PaletteSpace {
-        PaletteSpace { side, padding: 4, max_sheet_size: max }
+        PaletteSpace { side, padding: 4, max_sheet_size: max, may_widen: true }
     }
 
     fn face(face: u32, point: [f64; 2]) -> PaletteFace {
@@ -454,6 +458,20 @@ mod tests {
         cells.dedup();
         assert_eq!(cells.len(), 10, "no two blocks share a cell");
         assert!(cells.iter().all(|&(c, r)| (c + 1) * 4 <= sizes[1].0 && (r + 1) * 4 <= sizes[1].1));
+    }
+
+    #[test]
+    fn a_fixed_size_sheet_is_never_widened() {
+        let full = [[0.0, 0.0], [40.0, 0.0], [40.0, 40.0]];
+        let full2 = [[0.0, 0.0], [40.0, 40.0], [0.0, 40.0]];
+        let faces: Vec<PaletteFace> = (0..10).map(|k| face(k, [f64::from(k) + 0.5, 0.5])).collect();
+        let mut sizes = vec![(40, 40)];
+        let charts = [(0, full), (0, full2)].into_iter();
+        let fixed = PaletteSpace { may_widen: false, ..space(4, (64, 64)) };
+        let p = place_palette(&faces, 0, charts, &mut sizes, fixed);
+        assert_eq!(sizes[0], (40, 40));
+        assert_eq!((p.report.sheets_widened, p.report.sheets_added), (0, 1));
+        assert!(p.blocks.iter().all(|b| b.sheet == 1));
     }
 
     #[test]

@@ -74,15 +74,17 @@ pub fn max_sheet_size(opts: &PackOptions, input_sheet_sizes: &[(u32, u32)]) -> (
 }
 
 /// The size of an output sheet whose charts were trimmed to `trimmed`, and whether a fixed size
-/// was asked for that the sheet could not keep (a chart larger than the fixed sheet).
+/// was asked for that the sheet could not keep (a chart larger than the fixed sheet). Such a
+/// sheet grows only along the axis the chart outgrows, so no side falls below the fixed one.
 pub fn output_sheet_size(trimmed: (u32, u32), opts: &PackOptions) -> ((u32, u32), bool) {
-    if let Some(fixed) = opts.sheet_size
-        && trimmed.0 <= fixed.0
-        && trimmed.1 <= fixed.1
-    {
-        return (fixed, false);
+    match opts.sheet_size {
+        Some(fixed) if trimmed.0 <= fixed.0 && trimmed.1 <= fixed.1 => (fixed, false),
+        Some(fixed) => {
+            let side = |t: u32, f: u32| if t <= f { f } else { opts.side_up(t) };
+            ((side(trimmed.0, fixed.0), side(trimmed.1, fixed.1)), true)
+        }
+        None => ((opts.side_up(trimmed.0), opts.side_up(trimmed.1)), false),
     }
-    ((opts.side_up(trimmed.0), opts.side_up(trimmed.1)), opts.sheet_size.is_some())
 }
 
 /// Refuses sheet-shape options no run can honour, with a message naming the option.
@@ -182,7 +184,8 @@ mod tests {
     fn fixed_sheets_keep_their_size_unless_a_chart_outgrows_them() {
         let fixed = PackOptions { sheet_size: Some((512, 512)), ..opts(true, 1) };
         assert_eq!(output_sheet_size((300, 512), &fixed), ((512, 512), false));
-        assert_eq!(output_sheet_size((700, 20), &fixed), ((1024, 32), true));
+        // The sheet grows only along the axis the chart outgrows: never below the fixed size.
+        assert_eq!(output_sheet_size((700, 20), &fixed), ((1024, 512), true));
         assert_eq!(output_sheet_size((300, 70), &opts(false, 8)), ((304, 72), false));
         assert_eq!(output_sheet_size((301, 71), &PackOptions::default()), ((301, 71), false));
     }

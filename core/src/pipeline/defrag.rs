@@ -593,13 +593,17 @@ fn pack_stage(
         side: palette::block_side(format, cfg.jpeg_quality, cfg.lossy_webp),
         padding: cfg.pack.padding,
         max_sheet_size: packed.report.max_sheet_size,
+        may_widen: cfg.pack.sheet_size.is_none(),
     };
-    let palette = place_palette_blocks(topo, charts, &mut packed, &palette_faces, segments, space);
+    let palette =
+        place_palette_blocks(topo, charts, &mut packed, &palette_faces, segments, space, &cfg.pack);
     Ok((packed, palette, untangled))
 }
 
 /// Places the palette (see `pack::palette`) around the packed charts, and brings the packing's
-/// sheet figures up to date with the sheets it widened or added.
+/// sheet figures up to date with the sheets it widened or added. Those sheets get the sides the
+/// options allow (`--sheet-size`, `--pow2`, `--align`), as the packer's own sheets do: the blocks
+/// sit at the top left of their cells, so a sheet that grows keeps them in place.
 fn place_palette_blocks(
     topo: &Topology,
     charts: &PackingCharts,
@@ -607,6 +611,7 @@ fn place_palette_blocks(
     faces: &[PaletteFace],
     segments: usize,
     space: PaletteSpace,
+    opts: &PackOptions,
 ) -> Palette {
     let tris = (0..charts.face_chart.len())
         .filter(|&f| charts.face_chart[f] != u32::MAX && packed.face_sheet[f] != u32::MAX)
@@ -614,7 +619,17 @@ fn place_palette_blocks(
             let tri = [0, 1, 2].map(|k| packed.vert_uv[topo.corner_uv[3 * f + k].idx()]);
             (packed.face_sheet[f], tri)
         });
-    let palette = palette::place_palette(faces, segments, tris, &mut packed.sheet_sizes, space);
+    let before = packed.sheet_sizes.clone();
+    let mut palette = palette::place_palette(faces, segments, tris, &mut packed.sheet_sizes, space);
+    let texels = |sizes: &[(u32, u32)]| -> u64 {
+        sizes.iter().map(|&(w, h)| u64::from(w) * u64::from(h)).sum()
+    };
+    for (s, size) in packed.sheet_sizes.iter_mut().enumerate() {
+        if before.get(s) != Some(size) {
+            *size = crate::pack::output_sheet_size(*size, opts).0;
+        }
+    }
+    palette.report.texels_added = texels(&packed.sheet_sizes) - texels(&before);
     let r = &mut packed.report;
     r.palette = palette.report;
     if palette.report.texels_added > 0 {
