@@ -21,7 +21,8 @@ def defrag(
     """Defragments the atlas of `input` and writes `output` (sheets beside it).
 
     Options are the `scanatlas defrag` flags with underscores: `solver="slim"`,
-    `matching_tolerance=2`, `no_retry=True`, `max_sheet_size=(2048, 1024)`, `config="c.toml"`...
+    `matching_tolerance=2`, `no_retry=True`, `max_sheet_size=(2048, 1024)`, `sheet_size=4096`,
+    `pow2=True`, `texel_scale=0.5`, `config="c.toml"`...
     `progress` is called with each stage's label. Returns the run report.
 
     Raises ValueError (bad option or plugin), OSError (files), ModelError (bad model).

@@ -40,6 +40,14 @@ def test_defrag_merges_charts_and_writes_the_output(scan: Path, tmp_path: Path):
     assert after["charts_edge"] == merge["charts_after"]
 
 
+def test_texture_size_options_fix_every_sheet(scan: Path, tmp_path: Path):
+    out = tmp_path / "fixed" / "scan.obj"
+    report = scanatlas.defrag(scan, out, sheet_size=256, pow2=True)
+    sizes = [(s["width"], s["height"]) for s in scanatlas.stats(out)["texture_sizes"]]
+    assert sizes and all(s == (256, 256) for s in sizes), sizes
+    assert report["pack_options"]["sheet_size"] == [256, 256]
+
+
 def test_same_options_give_the_same_bytes(scan: Path, tmp_path: Path):
     outputs = []
     for k in range(2):
