@@ -72,8 +72,8 @@ fn build_from_a_synthetic_rig() {
         r.seam_jump_before, r.seam_jump_after
     );
     assert!(texels > 10_000);
-    // Measured 37.8 dB (40.0 dB smoothed): the photos carry per-photo gains of up to ±12%, which bound the PSNR
-    // of a texture copied verbatim from them; 30 dB leaves margin for sampling differences.
+    // The photos carry per-photo gains of up to ±12%, which bound the PSNR of a texture copied
+    // verbatim from them; 30 dB leaves margin for sampling differences.
     assert!(db > 30.0, "PSNR {db}");
     // Smoothing evens out the photos' gains: the colour gets closer to the true one, and the
     // jump across photo seams shrinks. (Both sides are sampled 0.75 texels inside their faces,
@@ -90,7 +90,7 @@ fn build_from_a_synthetic_rig() {
 
 /// Without exposure differences between the photos there is nothing to even out: smoothing must
 /// leave the colour as exact as the photos are (it once compared the two photos at points 0.75
-/// texels apart and diffused their difference of detail into the charts, costing 20 dB here).
+/// texels apart and diffused their difference of detail into the charts, at a large cost in PSNR).
 #[test]
 fn smoothing_keeps_exact_photos_exact() {
     let dir = tempfile::tempdir().unwrap();
@@ -110,8 +110,6 @@ fn smoothing_keeps_exact_photos_exact() {
     let (m, sheets) = load_output(&out, dir.path());
     let (db, _) = texture_psnr(&m, &sheets, &[]);
     eprintln!("PSNR {db:.2} dB with smoothing, photos without gain differences");
-    // Measured 45.2 dB (54.3 dB on a 20k-face rig of 1024x768 photos, which gave 33.5 dB before
-    // the fix; without smoothing 57.0 dB).
     assert!(db > 42.0, "PSNR {db:.2} dB");
 }
 
@@ -225,9 +223,8 @@ fn frequency_split_saves_texels_on_smooth_regions_and_keeps_the_colour() {
         sc_split.seam_jump_excess
     );
     // The colour does not collapse: within 2 dB of the full-resolution build over the atlas,
-    // and above 40 dB on the faces textured coarser. (Measured 50.3 -> 49.5 dB, and 51.1 ->
-    // 46.4 dB on the coarse faces: with the exposure compensation the full-resolution texture
-    // is nearly exact, so what the coarse levels leave out of the error budget now shows.)
+    // and above 40 dB on the faces textured coarser: with the exposure compensation the
+    // full-resolution texture is nearly exact, so what the coarse levels leave out shows.
     assert!(db_split > db_plain - 2.0 && db_split > 30.0, "PSNR {db_plain} -> {db_split}");
     assert!(coarse_faces > split.faces / 5, "{coarse_faces} faces coarser");
     assert!(

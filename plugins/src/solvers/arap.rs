@@ -647,11 +647,11 @@ impl LocalSolver for ArapSolver {
         self.build_pattern();
         self.assemble(&problem.uv);
         let nf = self.ws.free.len();
-        // The factor is used for up to 100 solves, and faer's simplicial solve is about 4× faster
-        // than its supernodal one at 100k unknowns (6 vs 25 ms for two right-hand sides) while its
-        // factorization is only ~2× slower; measured here, the whole solve is faster simplicial at
-        // 100k free vertices. Beyond `SIMPLICIAL_LIMIT` the better scaling of the supernodal
-        // factorization is expected to win, so faer chooses.
+        // The factor is used for up to 100 solves, and faer's simplicial solve is much faster than
+        // its supernodal one at the sizes of local patches while its factorization is only a
+        // little slower, so the whole solve is faster simplicial there. Beyond
+        // `SIMPLICIAL_LIMIT` the better scaling of the supernodal factorization is expected to
+        // win, so faer chooses.
         let symbolic =
             super::symbolic_cholesky(nf, &self.ws.col_ptr, &self.ws.row_idx, SIMPLICIAL_LIMIT)?;
         let factor = self.factorize(&symbolic)?;

@@ -5,7 +5,7 @@
 //! Every pure-Rust JPEG decoder decodes the whole image at once, which breaks the "no whole sheet
 //! in RAM" invariant for gigapixel textures (a 32768² RGB JPEG needs 3 GiB of output buffer).
 //! mozjpeg (libjpeg-turbo based, C) decodes in strips of scanlines. Built with
-//! `default-features = false` it is plain C compiled by `cc` (no nasm), which took 16 s here, so
+//! `default-features = false` it is plain C compiled by `cc` (no nasm, a short build), so
 //! it is the default decoder (cargo feature `mozjpeg`, on by default): rows are read 64 at a time
 //! and written into the tile store, so memory stays at a few MiB whatever the image size.
 //! libjpeg reports fatal errors through `error_exit`; the mozjpeg crate turns them into Rust

@@ -331,7 +331,7 @@ pub fn resample_sheets(
         let t = Instant::now();
         // A band of tile rows at a time, releasing the input pages read in between: any output
         // tile may sample any input sheet, and without this the resident set grows towards the
-        // size of all the inputs (3.2 GB for sixteen 8192² RGB sheets) instead of one band's worth.
+        // size of all the inputs (gigabytes for a multi-sheet scan) instead of one band's worth.
         let band = band_rows(store.tiles_x() as usize * store.tile_bytes());
         let mut counts = paint::Counts::default();
         let mut ty0 = 0;

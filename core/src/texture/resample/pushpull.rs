@@ -14,7 +14,7 @@
 //! file in the work directory in the sheet's pixel format (so sums are rounded to that format at
 //! every level, as in the reference's 8-bit images) plus a heap [`Coverage`] of one bit per
 //! texel. Levels `≥ 1` together cost about a third of the sheet's tile file on disk and in the
-//! page cache — 341 MiB for a 16384² RGBA8 sheet (1 GiB) — and about 11 MiB of heap for the masks;
+//! page cache, and a few MiB of heap for the masks;
 //! a level is dropped (its file deleted) as soon as the level below has been pushed, and a level's
 //! pages leave the resident set once the next one has been pulled from it. Every level is built
 //! tile by tile in parallel; a tile reads only the level below or above, never its own level, so
