@@ -1,6 +1,7 @@
 //! `pack_layout`: the packing stage from final charts to output UVs, sheets and grid-preserving
 //! transforms (see the module documentation of `pack` for the overall plan).
 
+use crate::index::NONE;
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -30,7 +31,7 @@ fn check_len(what: &'static str, got: usize, expected: usize) -> Result<(), Pack
 }
 
 /// Checks the shapes and values of the input, and returns the chart of every UV vertex
-/// (`u32::MAX` when no packed face uses it).
+/// (`NONE` when no packed face uses it).
 fn validate(input: &LayoutInput, opts: &PackOptions) -> Result<Vec<u32>, PackError> {
     let nf = input.face_chart.len();
     check_len("corner_vert", input.corner_vert.len(), 3 * nf)?;
@@ -46,10 +47,10 @@ fn validate(input: &LayoutInput, opts: &PackOptions) -> Result<Vec<u32>, PackErr
     if !(opts.rigid_tolerance.is_finite() && opts.rigid_tolerance >= 0.0) {
         return Err(PackError::Options("rigid_tolerance must be finite and ≥ 0".into()));
     }
-    let mut vert_chart = vec![u32::MAX; input.vert_uv.len()];
+    let mut vert_chart = vec![NONE; input.vert_uv.len()];
     for f in 0..nf {
         let chart = input.face_chart[f];
-        if chart == u32::MAX {
+        if chart == NONE {
             continue;
         }
         let face = f as u32;
@@ -70,7 +71,7 @@ fn validate(input: &LayoutInput, opts: &PackOptions) -> Result<Vec<u32>, PackErr
                 return Err(PackError::NonFinite { face });
             }
             let vc = &mut vert_chart[v as usize];
-            if *vc == u32::MAX {
+            if *vc == NONE {
                 *vc = chart;
             } else if *vc != chart {
                 return Err(PackError::SharedVertex { vertex: v, a: *vc, b: chart });
@@ -84,7 +85,7 @@ fn validate(input: &LayoutInput, opts: &PackOptions) -> Result<Vec<u32>, PackErr
 fn chart_lists(input: &LayoutInput, vert_chart: &[u32]) -> (Csr, Csr) {
     let n = input.n_charts;
     let mut count = vec![0usize; n + 1];
-    for &c in input.face_chart.iter().filter(|&&c| c != u32::MAX) {
+    for &c in input.face_chart.iter().filter(|&&c| c != NONE) {
         count[c as usize + 1] += 1;
     }
     for i in 0..n {
@@ -92,13 +93,13 @@ fn chart_lists(input: &LayoutInput, vert_chart: &[u32]) -> (Csr, Csr) {
     }
     let mut fill = count.clone();
     let mut items = vec![0u32; count[n]];
-    for (f, &c) in input.face_chart.iter().enumerate().filter(|(_, c)| **c != u32::MAX) {
+    for (f, &c) in input.face_chart.iter().enumerate().filter(|(_, c)| **c != NONE) {
         items[fill[c as usize]] = f as u32;
         fill[c as usize] += 1;
     }
     let faces = Csr { start: count, items };
     let mut vstart = vec![0usize; n + 1];
-    for &c in vert_chart.iter().filter(|&&c| c != u32::MAX) {
+    for &c in vert_chart.iter().filter(|&&c| c != NONE) {
         vstart[c as usize + 1] += 1;
     }
     for i in 0..n {
@@ -531,7 +532,7 @@ fn finish_report(
     report: &mut PackReport,
 ) -> Vec<u32> {
     let input = cx.input;
-    let mut face_sheet = vec![u32::MAX; input.face_chart.len()];
+    let mut face_sheet = vec![NONE; input.face_chart.len()];
     let mut uv_area = 0.0;
     let (mut all_area, mut kept_area) = (0.0, 0.0);
     for (i, &c) in st.packed.iter().enumerate() {

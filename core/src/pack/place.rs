@@ -6,6 +6,7 @@ use super::PackError;
 use super::anchor::compose;
 use super::layout::{Charts, Framed};
 use crate::geometry::GridTransform;
+use crate::index::NONE;
 use crate::plugin::{PackOutput, PackerError, quarter_turn_frame};
 
 /// Where the charts landed: output UVs, grid maps of anchored charts, the output sheet of each
@@ -19,10 +20,10 @@ pub(super) struct Placed {
 
 /// The output sheet of each packer sheet, numbered in order of first use.
 fn renumber_sheets(out: &PackOutput) -> (Vec<u32>, usize) {
-    let mut sheet_id = vec![u32::MAX; out.sheets.len()];
+    let mut sheet_id = vec![NONE; out.sheets.len()];
     let mut n_sheets = 0u32;
     for p in &out.placements {
-        if sheet_id[p.sheet as usize] == u32::MAX {
+        if sheet_id[p.sheet as usize] == NONE {
             sheet_id[p.sheet as usize] = n_sheets;
             n_sheets += 1;
         }

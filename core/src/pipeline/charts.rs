@@ -102,7 +102,7 @@ impl PackingCharts {
     /// chart around their new place holds.
     pub fn take_palette_faces(&mut self, topo: &Topology) -> (Vec<PaletteFace>, usize) {
         let tri = |f: usize| [0, 1, 2].map(|k| topo.orig_uv[3 * f + k]);
-        let candidate = |f: usize| self.face_chart[f] != u32::MAX && palette::zero_uv_area(tri(f));
+        let candidate = |f: usize| self.face_chart[f] != NONE && palette::zero_uv_area(tri(f));
         // Input UV vertices of the candidates' corners, keyed as the input welds them.
         let key = |c: usize| {
             let uv = topo.orig_uv[c];
@@ -117,7 +117,7 @@ impl PackingCharts {
         }
         // Input UV edges between those vertices that some face with area has.
         let mut held: HashSet<(u32, u32)> = HashSet::new();
-        for f in (0..self.face_chart.len()).filter(|&f| self.face_chart[f] != u32::MAX) {
+        for f in (0..self.face_chart.len()).filter(|&f| self.face_chart[f] != NONE) {
             if candidate(f) {
                 continue;
             }
@@ -143,7 +143,7 @@ impl PackingCharts {
             out.push(PaletteFace { face: f as u32, src_sheet: topo.face_sheet[f], point });
         }
         for p in &out {
-            self.face_chart[p.face as usize] = u32::MAX;
+            self.face_chart[p.face as usize] = NONE;
         }
         (out, segments)
     }

@@ -2,6 +2,7 @@
 //! synthesis → write), with the plugins chosen by name from a [`Registry`] and a serializable run
 //! report.
 
+use crate::index::NONE;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -614,7 +615,7 @@ fn place_palette_blocks(
     opts: &PackOptions,
 ) -> Palette {
     let tris = (0..charts.face_chart.len())
-        .filter(|&f| charts.face_chart[f] != u32::MAX && packed.face_sheet[f] != u32::MAX)
+        .filter(|&f| charts.face_chart[f] != NONE && packed.face_sheet[f] != NONE)
         .map(|f| {
             let tri = [0, 1, 2].map(|k| packed.vert_uv[topo.corner_uv[3 * f + k].idx()]);
             (packed.face_sheet[f], tri)

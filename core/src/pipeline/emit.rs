@@ -110,13 +110,13 @@ pub(super) fn packed_model(
     let mut new_id = vec![NONE; t.uv_pos.len()];
     let mut zero_uv: Option<UvId> = None;
     // One UV record per palette block, at its centre.
-    let mut block_uv = vec![u32::MAX; palette.blocks.len()];
+    let mut block_uv = vec![NONE; palette.blocks.len()];
     let mut on_palette = palette.face_block.iter().peekable();
     for (f, face) in out.faces.iter_mut().enumerate() {
         if let Some(&(_, b)) = on_palette.next_if(|(pf, _)| *pf as usize == f) {
             let sheet = palette.blocks[b as usize].sheet;
             let (w, h) = packed.sheet_sizes[sheet as usize];
-            if block_uv[b as usize] == u32::MAX {
+            if block_uv[b as usize] == NONE {
                 block_uv[b as usize] = uvs.len() as u32;
                 uvs.push(texel_to_uv(palette.centre(b, h), w, h));
             }
