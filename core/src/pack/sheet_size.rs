@@ -91,8 +91,10 @@ pub fn output_sheet_size(trimmed: (u32, u32), opts: &PackOptions) -> ((u32, u32)
 pub fn check_sheet_shape(opts: &PackOptions) -> Result<(), String> {
     let s = opts.texel_scale;
     if !(s.is_finite() && (MIN_TEXEL_SCALE..=MAX_TEXEL_SCALE).contains(&s)) {
+        // Huge values in scientific notation, so a typo does not print three hundred digits.
+        let shown = if s.abs() < 1e6 { s.to_string() } else { format!("{s:e}") };
         return Err(format!(
-            "--texel-scale {s}: expected a number from {MIN_TEXEL_SCALE} to {MAX_TEXEL_SCALE}"
+            "--texel-scale {shown}: expected a number from {MIN_TEXEL_SCALE} to {MAX_TEXEL_SCALE}"
         ));
     }
     if !(1..=MAX_ALIGN).contains(&opts.align) {
