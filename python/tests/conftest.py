@@ -29,7 +29,7 @@ def write_png(path: Path, width: int, height: int) -> None:
     )
 
 
-def write_grid_scan(folder: Path, n: int = 6) -> Path:
+def write_grid_scan(folder: Path, n: int = 6, texture_side: int = 128) -> Path:
     """A gently curved n×n grid whose every quad is its own UV chart, as raw photogrammetry
     atlases are: the defragmentation has many seams to merge."""
     lines = ["mtllib scan.mtl"]
@@ -55,7 +55,7 @@ def write_grid_scan(folder: Path, n: int = 6) -> Path:
             lines.append(f"f {a}/{t} {c}/{t + 2} {d}/{t + 3}")
     (folder / "scan.obj").write_text("\n".join(lines) + "\n")
     (folder / "scan.mtl").write_text("newmtl skin\nmap_Kd scan.png\n")
-    write_png(folder / "scan.png", 128, 128)
+    write_png(folder / "scan.png", texture_side, texture_side)
     return folder / "scan.obj"
 
 
