@@ -173,26 +173,7 @@ impl Topology {
     /// (`None` when unknown: its faces keep scale 1 and are frozen).
     pub fn build(model: &Model, sheet_sizes: &[Option<(u32, u32)>]) -> Result<Self, TopologyError> {
         let t_all = Instant::now();
-        if sheet_sizes.len() != model.sheets.len() {
-            return Err(TopologyError::SheetSizeCount {
-                expected: model.sheets.len(),
-                got: sheet_sizes.len(),
-            });
-        }
-        model.validate_indices().map_err(TopologyError::InvalidModel)?;
-        let limit = u32::MAX as usize - 1;
-        if model.faces.len().saturating_mul(3) > limit {
-            return Err(TopologyError::TooLarge {
-                what: "corners",
-                count: model.faces.len().saturating_mul(3),
-            });
-        }
-        if model.positions.len() > limit {
-            return Err(TopologyError::TooLarge {
-                what: "positions",
-                count: model.positions.len(),
-            });
-        }
+        check_sizes(model, sheet_sizes)?;
         let mut timings = Vec::new();
         let mut t = Instant::now();
         let mut lap = |stage: &'static str, t: &mut Instant| {
@@ -225,17 +206,7 @@ impl Topology {
             &adj,
             &mut face_flags,
         );
-        for (f, flags) in face_flags.iter_mut().enumerate() {
-            if flags.has_usable_uv() {
-                let a2 =
-                    texel::signed_area2(orig_uv[3 * f], orig_uv[3 * f + 1], orig_uv[3 * f + 2]);
-                let area = 0.5 * a2.abs();
-                // Finite UVs can still overflow to an infinite or NaN area: freeze those too.
-                if area.is_nan() || area < ZERO_UV_AREA || area.is_infinite() {
-                    flags.0 |= FrozenReasons::ZERO_AREA_UV;
-                }
-            }
-        }
+        freeze_zero_area_uvs(&mut face_flags, &orig_uv);
         let uv_weld = weld::weld_uvs(model, &corner_pos, n_positions, &face_sheet, &face_flags);
         lap("weld uv", &mut t);
 
@@ -285,51 +256,7 @@ impl Topology {
         let ops = ops::build_ops(&chains.chains, &chains.chain_links, &links.links);
         lap("operations", &mut t);
 
-        let mut frozen = FrozenCounts::default();
-        for flags in &face_flags {
-            let count = |bit: u8| u64::from(flags.has(bit));
-            frozen.total += u64::from(flags.is_frozen());
-            frozen.no_uv += count(FrozenReasons::NO_UV);
-            frozen.non_finite_uv += count(FrozenReasons::NON_FINITE_UV);
-            frozen.no_sheet += count(FrozenReasons::NO_SHEET);
-            frozen.degenerate += count(FrozenReasons::DEGENERATE);
-            frozen.zero_area_3d += count(FrozenReasons::ZERO_AREA_3D);
-            frozen.zero_area_uv += count(FrozenReasons::ZERO_AREA_UV);
-            frozen.stray_uv += count(FrozenReasons::STRAY_UV);
-        }
-        let mut referenced = vec![false; n_positions];
-        for p in &corner_pos {
-            referenced[p.idx()] = true;
-        }
-        let report = PreparationReport {
-            faces: model.faces.len() as u64,
-            positions: referenced.iter().filter(|&&r| r).count() as u64,
-            uv_vertices_welded: uv_weld.count as u64,
-            uv_vertices: uv.uv_pos.len() as u64,
-            uv_components: labels.uv_components as u64,
-            charts: labels.n_charts as u64,
-            frozen_charts: chart_list.iter().filter(|c| c.frozen).count() as u64,
-            flipped_charts: chart_list.iter().filter(|c| c.flipped).count() as u64,
-            mesh_edges: adj.edges.len() as u64,
-            boundary_edges: adj.boundary_edges,
-            non_manifold_edges: adj.non_manifold_edges,
-            non_manifold_faces,
-            degenerate_edges: adj.degenerate_edges,
-            inconsistent_edge_pairs: adj.inconsistent_pairs,
-            seams: links.links.len() as u64,
-            frozen_seams: links.frozen_seams,
-            frozen_borders: links.frozen_borders,
-            chains: chains.chains.len() as u64,
-            closed_chains: chains.chains.iter().filter(|c| c.closed).count() as u64,
-            inter_ops: ops.ops.iter().filter(|o| o.kind == OpKind::Inter).count() as u64,
-            intra_ops: ops.ops.iter().filter(|o| o.kind == OpKind::Intra).count() as u64,
-            frozen_faces: frozen,
-            non_finite_uvs,
-            rebased_charts,
-            timings,
-            total_ms: t_all.elapsed().as_secs_f64() * 1e3,
-        };
-        Ok(Self {
+        let mut topo = Self {
             vertex_pos,
             n_positions,
             corner_pos,
@@ -356,8 +283,49 @@ impl Topology {
             op_chains: ops.op_chains,
             op_links: ops.op_links,
             op_pairs: ops.op_pairs,
-            report,
-        })
+            // The figures only the stages know; `count_structures` adds the rest.
+            report: PreparationReport {
+                uv_vertices_welded: uv_weld.count as u64,
+                uv_components: labels.uv_components as u64,
+                charts: labels.n_charts as u64,
+                boundary_edges: adj.boundary_edges,
+                non_manifold_edges: adj.non_manifold_edges,
+                non_manifold_faces,
+                degenerate_edges: adj.degenerate_edges,
+                inconsistent_edge_pairs: adj.inconsistent_pairs,
+                frozen_seams: links.frozen_seams,
+                frozen_borders: links.frozen_borders,
+                non_finite_uvs,
+                rebased_charts,
+                timings,
+                ..PreparationReport::default()
+            },
+        };
+        topo.count_structures();
+        topo.report.total_ms = t_all.elapsed().as_secs_f64() * 1e3;
+        Ok(topo)
+    }
+
+    /// Fills the report's counts of the built structures: faces, positions, UV vertices,
+    /// charts, edges, seams, chains and operations.
+    fn count_structures(&mut self) {
+        let mut referenced = vec![false; self.n_positions];
+        for p in &self.corner_pos {
+            referenced[p.idx()] = true;
+        }
+        let r = &mut self.report;
+        r.faces = self.face_flags.len() as u64;
+        r.positions = referenced.iter().filter(|&&r| r).count() as u64;
+        r.uv_vertices = self.uv_pos.len() as u64;
+        r.frozen_charts = self.charts.iter().filter(|c| c.frozen).count() as u64;
+        r.flipped_charts = self.charts.iter().filter(|c| c.flipped).count() as u64;
+        r.mesh_edges = self.edges.len() as u64;
+        r.seams = self.links.len() as u64;
+        r.chains = self.chains.len() as u64;
+        r.closed_chains = self.chains.iter().filter(|c| c.closed).count() as u64;
+        r.inter_ops = self.ops.iter().filter(|o| o.kind == OpKind::Inter).count() as u64;
+        r.intra_ops = self.ops.iter().filter(|o| o.kind == OpKind::Intra).count() as u64;
+        r.frozen_faces = count_frozen(&self.face_flags);
     }
 
     /// The linked pairs of operation `op`.
@@ -425,4 +393,58 @@ impl Topology {
             }
         }
     }
+}
+
+/// Refuses sheet sizes that do not match the model's sheets, an invalid model, or one too
+/// large for 32-bit corner and position ids.
+fn check_sizes(model: &Model, sheet_sizes: &[Option<(u32, u32)>]) -> Result<(), TopologyError> {
+    if sheet_sizes.len() != model.sheets.len() {
+        return Err(TopologyError::SheetSizeCount {
+            expected: model.sheets.len(),
+            got: sheet_sizes.len(),
+        });
+    }
+    model.validate_indices().map_err(TopologyError::InvalidModel)?;
+    let limit = u32::MAX as usize - 1;
+    if model.faces.len().saturating_mul(3) > limit {
+        return Err(TopologyError::TooLarge {
+            what: "corners",
+            count: model.faces.len().saturating_mul(3),
+        });
+    }
+    if model.positions.len() > limit {
+        return Err(TopologyError::TooLarge { what: "positions", count: model.positions.len() });
+    }
+    Ok(())
+}
+
+/// Freezes the faces with usable UVs whose UV area is below [`ZERO_UV_AREA`].
+fn freeze_zero_area_uvs(face_flags: &mut [FrozenReasons], orig_uv: &[[f64; 2]]) {
+    for (f, flags) in face_flags.iter_mut().enumerate() {
+        if flags.has_usable_uv() {
+            let a2 = texel::signed_area2(orig_uv[3 * f], orig_uv[3 * f + 1], orig_uv[3 * f + 2]);
+            let area = 0.5 * a2.abs();
+            // Finite UVs can still overflow to an infinite or NaN area: freeze those too.
+            if area.is_nan() || area < ZERO_UV_AREA || area.is_infinite() {
+                flags.0 |= FrozenReasons::ZERO_AREA_UV;
+            }
+        }
+    }
+}
+
+/// Frozen faces counted by reason.
+fn count_frozen(face_flags: &[FrozenReasons]) -> FrozenCounts {
+    let mut frozen = FrozenCounts::default();
+    for flags in face_flags {
+        let count = |bit: u8| u64::from(flags.has(bit));
+        frozen.total += u64::from(flags.is_frozen());
+        frozen.no_uv += count(FrozenReasons::NO_UV);
+        frozen.non_finite_uv += count(FrozenReasons::NON_FINITE_UV);
+        frozen.no_sheet += count(FrozenReasons::NO_SHEET);
+        frozen.degenerate += count(FrozenReasons::DEGENERATE);
+        frozen.zero_area_3d += count(FrozenReasons::ZERO_AREA_3D);
+        frozen.zero_area_uv += count(FrozenReasons::ZERO_AREA_UV);
+        frozen.stray_uv += count(FrozenReasons::STRAY_UV);
+    }
+    frozen
 }

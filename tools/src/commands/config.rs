@@ -228,73 +228,14 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
     for ((kind, name), params) in &file.plugins {
         registry.check(*kind, name, params).map_err(|e| usage(format!("config file: {e}")))?;
     }
-    let defaults = MergeOptions::default();
-    let pick = |flag: Option<f64>, key: &str, default: f64| -> Result<f64, UsageError> {
-        Ok(match flag {
-            Some(x) => x,
-            None => file.float(key)?.unwrap_or(default),
-        })
-    };
-    let serial = args.serial || file.flag("serial")?;
-    let merge = MergeOptions {
-        local_distortion: pick(
-            args.local_distortion,
-            "local-distortion",
-            defaults.local_distortion,
-        )?,
-        global_distortion: pick(
-            args.global_distortion,
-            "global-distortion",
-            defaults.global_distortion,
-        )?,
-        alpha: pick(args.alpha, "alpha", defaults.alpha)?,
-        uv_border_target: pick(
-            args.uv_border_target,
-            "uv-border-target",
-            defaults.uv_border_target,
-        )?,
-        time_limit: pick(args.time_limit, "time-limit", defaults.time_limit)?,
-        no_retry: args.no_retry || file.flag("no-retry")?,
-        solve_repair: !(args.no_solve_repair || file.flag("no-solve-repair")?),
-        one_sided: !(args.no_one_sided || file.flag("no-one-sided")?),
-        energy_ration: pick(args.energy_ration, "energy-ration", defaults.energy_ration)?,
-        defer: !(args.no_defer || file.flag("no-defer")?),
-        rescue_share: pick(args.rescue_share, "rescue-share", defaults.rescue_share)?,
-        speculate: !serial,
-        cluster_faces: if serial {
-            0
-        } else {
-            match args.cluster_faces {
-                Some(n) => n,
-                None => file
-                    .whole("cluster-faces", i64::from(u32::MAX))?
-                    .map_or(defaults.cluster_faces, |n| n as u32),
-            }
-        },
-        ..defaults
-    };
+    let merge = merge_options(args, &file)?;
     merge.validate().map_err(|e| usage(e.to_string()))?;
     let base = DefragConfig::default();
     let scorer = args.scorer.clone().or(file.text("scorer")?).unwrap_or(base.scorer);
     let solver = args.solver.clone().or(file.text("solver")?).unwrap_or(base.solver);
     let packer = args.packer.clone().or(file.text("packer")?).unwrap_or(base.packer);
 
-    // The m and b filters are scorer parameters; the flags and the top-level keys set them for
-    // whichever scorer runs, over its own table.
-    let mut scorer_params = file.params(PluginKind::Scorer, &scorer);
-    for (flag, key) in [
-        (args.matching_tolerance, "matching-tolerance"),
-        (args.boundary_tolerance, "boundary-tolerance"),
-    ] {
-        let value = match flag {
-            Some(x) => Some(x),
-            None if scorer_params.contains_key(key) => None,
-            None => file.float(key)?,
-        };
-        if let Some(x) = value {
-            scorer_params.insert(key.to_string(), ParamValue::Float(x));
-        }
-    }
+    let scorer_params = scorer_params(args, &file, &scorer)?;
     let solver_params = solver_params(&file, &solver);
     let packer_params = file.params(PluginKind::Packer, &packer);
     registry
@@ -335,7 +276,7 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
             .map_or(PackOptions::default().align, |a| a as u32),
     };
     let split_rigid_ratio =
-        pick(args.split_rigid, "split-rigid", PackOptions::default().split_rigid_ratio)?;
+        pick(&file, args.split_rigid, "split-rigid", PackOptions::default().split_rigid_ratio)?;
     if !(split_rigid_ratio.is_finite() && split_rigid_ratio >= 0.0) {
         return Err(usage(format!("--split-rigid must be 0 or more, got {split_rigid_ratio}")));
     }
@@ -345,7 +286,12 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
         sheet_size,
         pow2: args.pow2 || file.flag("pow2")?,
         align,
-        texel_scale: pick(args.texel_scale, "texel-scale", PackOptions::default().texel_scale)?,
+        texel_scale: pick(
+            &file,
+            args.texel_scale,
+            "texel-scale",
+            PackOptions::default().texel_scale,
+        )?,
         separate_texel_clashes: !(args.no_clash_separation || file.flag("no-clash-separation")?),
         split_rigid_ratio,
         ..PackOptions::default()
@@ -370,6 +316,82 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
         untangle: if args.no_untangle || file.flag("no-untangle")? { None } else { base.untangle },
         ..base
     })
+}
+
+/// A number from its flag, else from the config file's `key`, else `default`.
+fn pick(file: &FileConfig, flag: Option<f64>, key: &str, default: f64) -> Result<f64, UsageError> {
+    Ok(match flag {
+        Some(x) => x,
+        None => file.float(key)?.unwrap_or(default),
+    })
+}
+
+/// The merge options from the command line over the config file over the defaults.
+fn merge_options(args: &DefragArgs, file: &FileConfig) -> Result<MergeOptions, UsageError> {
+    let defaults = MergeOptions::default();
+    let serial = args.serial || file.flag("serial")?;
+    Ok(MergeOptions {
+        local_distortion: pick(
+            file,
+            args.local_distortion,
+            "local-distortion",
+            defaults.local_distortion,
+        )?,
+        global_distortion: pick(
+            file,
+            args.global_distortion,
+            "global-distortion",
+            defaults.global_distortion,
+        )?,
+        alpha: pick(file, args.alpha, "alpha", defaults.alpha)?,
+        uv_border_target: pick(
+            file,
+            args.uv_border_target,
+            "uv-border-target",
+            defaults.uv_border_target,
+        )?,
+        time_limit: pick(file, args.time_limit, "time-limit", defaults.time_limit)?,
+        no_retry: args.no_retry || file.flag("no-retry")?,
+        solve_repair: !(args.no_solve_repair || file.flag("no-solve-repair")?),
+        one_sided: !(args.no_one_sided || file.flag("no-one-sided")?),
+        energy_ration: pick(file, args.energy_ration, "energy-ration", defaults.energy_ration)?,
+        defer: !(args.no_defer || file.flag("no-defer")?),
+        rescue_share: pick(file, args.rescue_share, "rescue-share", defaults.rescue_share)?,
+        speculate: !serial,
+        cluster_faces: if serial {
+            0
+        } else {
+            match args.cluster_faces {
+                Some(n) => n,
+                None => file
+                    .whole("cluster-faces", i64::from(u32::MAX))?
+                    .map_or(defaults.cluster_faces, |n| n as u32),
+            }
+        },
+        ..defaults
+    })
+}
+
+/// The scorer's parameters: its table in the config file, with the m and b filters set by
+/// their flags or top-level keys.
+fn scorer_params(args: &DefragArgs, file: &FileConfig, scorer: &str) -> Result<Params, UsageError> {
+    // The m and b filters are scorer parameters; the flags and the top-level keys set them for
+    // whichever scorer runs, over its own table.
+    let mut scorer_params = file.params(PluginKind::Scorer, scorer);
+    for (flag, key) in [
+        (args.matching_tolerance, "matching-tolerance"),
+        (args.boundary_tolerance, "boundary-tolerance"),
+    ] {
+        let value = match flag {
+            Some(x) => Some(x),
+            None if scorer_params.contains_key(key) => None,
+            None => file.float(key)?,
+        };
+        if let Some(x) = value {
+            scorer_params.insert(key.to_string(), ParamValue::Float(x));
+        }
+    }
+    Ok(scorer_params)
 }
 
 #[cfg(test)]

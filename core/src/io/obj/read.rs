@@ -484,26 +484,90 @@ fn parse(path: &Path, bytes: &[u8], limit: u64, chunk: Option<usize>) -> Result<
     let target = chunk.unwrap_or_else(|| chunk_target(bytes.len())).max(1);
     let chunks = split_chunks(bytes, target);
     let scans: Vec<ChunkScan> = chunks.par_iter().map(|r| scan_chunk(&bytes[r.clone()])).collect();
-
-    // Prefix sums: where each chunk starts, in lines and in elements.
-    let mut bases = Vec::with_capacity(scans.len());
-    let mut total = Counts { lines: 1, ..Counts::default() };
-    let (mut polygons, mut polygon_tris, mut lines_points, mut other) = (0u64, 0u64, 0u64, 0u64);
-    for s in &scans {
-        bases.push(total);
-        total.lines += s.counts.lines;
-        total.v += s.counts.v;
-        total.vt += s.counts.vt;
-        total.vn += s.counts.vn;
-        total.tris += s.counts.tris;
-        polygons += s.polygons;
-        polygon_tris += s.polygon_tris;
-        lines_points += s.lines_points;
-        other += s.other;
-    }
+    let (bases, sum) = prefix_sums(&scans);
+    let total = sum.counts;
     let last_line = total.lines.saturating_sub(1).max(1);
+    check_limits(path, bytes, &chunks, &scans, &bases, &total, limit)?;
+    let mut plan = plan_materials(path, &scans, &bases)?;
+    let Elements { positions, uvs, normals, mut faces, polygons: polygon_list } =
+        parse_chunks(path, bytes, &chunks, &scans, &bases, total, &mut plan)?;
+    let MaterialPlan { mut table, extras, explicit_none, .. } = plan;
+    let clipped = retriangulate(&positions, &mut faces, &polygon_list);
+    if faces.is_empty() {
+        return Err(IoError::line(path, last_line, "no faces"));
+    }
 
-    // Element limits: the error names the line where the limit is passed.
+    let mut notes = Vec::new();
+    if sum.polygons > 0 {
+        notes.push(format!(
+            "{} polygons with more than 3 vertices triangulated into {} \
+             triangles ({clipped} non-convex ones by ear clipping in their plane)",
+            sum.polygons, sum.polygon_tris
+        ));
+    }
+    let mut warnings = std::mem::take(&mut table.warnings);
+    if sum.lines_points > 0 {
+        warnings.push(Warning::new(
+            WarningCode::ContentSkipped,
+            format!("{} line/point statements (l, p) skipped", sum.lines_points),
+        ));
+    }
+    if sum.other > 0 {
+        warnings.push(Warning::new(
+            WarningCode::ContentSkipped,
+            format!("{} unsupported statements skipped", sum.other),
+        ));
+    }
+    if let Some(w) = assume_lone_texture(&mut faces, &table, explicit_none) {
+        warnings.push(w);
+    }
+
+    Ok(Model {
+        path: path.to_path_buf(),
+        positions,
+        uvs,
+        normals,
+        faces,
+        materials: table.materials,
+        sheets: table.sheets,
+        origin: Origin::Obj(extras),
+        notes,
+        warnings,
+    })
+}
+
+/// Prefix sums of pass 1: where each chunk starts, in lines and in elements, and the sums of
+/// all chunks (its `counts.lines` is one past the last line; it has no directives).
+fn prefix_sums(scans: &[ChunkScan]) -> (Vec<Counts>, ChunkScan) {
+    let mut bases = Vec::with_capacity(scans.len());
+    let mut sum =
+        ChunkScan { counts: Counts { lines: 1, ..Counts::default() }, ..ChunkScan::default() };
+    for s in scans {
+        bases.push(sum.counts);
+        sum.counts.lines += s.counts.lines;
+        sum.counts.v += s.counts.v;
+        sum.counts.vt += s.counts.vt;
+        sum.counts.vn += s.counts.vn;
+        sum.counts.tris += s.counts.tris;
+        sum.polygons += s.polygons;
+        sum.polygon_tris += s.polygon_tris;
+        sum.lines_points += s.lines_points;
+        sum.other += s.other;
+    }
+    (bases, sum)
+}
+
+/// Refuses a file with more elements of a kind than `limit`; the error names the line where the
+/// limit is passed.
+fn check_limits(
+    path: &Path,
+    bytes: &[u8],
+    chunks: &[Range<usize>],
+    scans: &[ChunkScan],
+    bases: &[Counts],
+    total: &Counts,
+    limit: u64,
+) -> Result<(), IoError> {
     let kinds: [ElementKind; 4] = [
         (b"v", |c| c.v, "positions"),
         (b"vt", |c| c.vt, "texture coordinates"),
@@ -511,7 +575,7 @@ fn parse(path: &Path, bytes: &[u8], limit: u64, chunk: Option<usize>) -> Result<
         (b"f", |c| c.tris, "triangles"),
     ];
     for (kw, get, what) in kinds {
-        if get(&total) > limit {
+        if get(total) > limit {
             let i = (0..scans.len())
                 .find(|&i| get(&bases[i]) + get(&scans[i].counts) > limit)
                 .unwrap_or(scans.len() - 1);
@@ -523,23 +587,41 @@ fn parse(path: &Path, bytes: &[u8], limit: u64, chunk: Option<usize>) -> Result<
             ));
         }
     }
+    Ok(())
+}
 
-    // Material libraries first (a `usemtl` may precede its `mtllib`), then the `usemtl`
-    // switches and group markers in file order.
+/// The materials of the file and the material in force in each chunk.
+struct MaterialPlan {
+    table: MaterialTable,
+    extras: ObjExtras,
+    /// The material in force at each chunk's start.
+    starts: Vec<Option<MaterialId>>,
+    /// Each chunk's `usemtl` switches as (triangles of the chunk before it, material).
+    switches: Vec<Vec<(u64, Option<MaterialId>)>>,
+    /// An empty `usemtl` said "no material" on purpose (scanatlas writes it so).
+    explicit_none: bool,
+}
+
+/// Loads the material libraries first (a `usemtl` may precede its `mtllib`), then follows the
+/// `usemtl` switches and group markers in file order.
+fn plan_materials(
+    path: &Path,
+    scans: &[ChunkScan],
+    bases: &[Counts],
+) -> Result<MaterialPlan, IoError> {
     let mut table = MaterialTable::default();
     let mut libraries = Vec::new();
-    for (s, b) in scans.iter().zip(&bases) {
+    for (s, b) in scans.iter().zip(bases) {
         for d in s.directives.iter().filter(|d| d.kind == DirectiveKind::Mtllib) {
             libraries.extend(load_mtllib(&mut table, path, b.lines + d.line, &d.text)?);
         }
     }
     let mut extras = ObjExtras { libraries, ..ObjExtras::default() };
     let mut current: Option<MaterialId> = None;
-    // An empty `usemtl` says "no material" on purpose (scanatlas writes it so).
     let mut explicit_none = false;
     let mut starts = Vec::with_capacity(scans.len());
     let mut switches = Vec::with_capacity(scans.len());
-    for (s, b) in scans.iter().zip(&bases) {
+    for (s, b) in scans.iter().zip(bases) {
         starts.push(current);
         let mut sw = Vec::new();
         for d in &s.directives {
@@ -561,86 +643,66 @@ fn parse(path: &Path, bytes: &[u8], limit: u64, chunk: Option<usize>) -> Result<
         switches.push(sw);
     }
     extras.map_kd_options = std::mem::take(&mut table.map_kd_options);
+    Ok(MaterialPlan { table, extras, starts, switches, explicit_none })
+}
 
-    // The final arrays, allocated once; each chunk parses into its own slices.
+/// The element arrays of pass 2, and the polygons to re-triangulate.
+struct Elements {
+    positions: Vec<[f64; 3]>,
+    uvs: Vec<[f64; 2]>,
+    normals: Vec<[f32; 3]>,
+    faces: Vec<Face>,
+    polygons: Vec<Polygon>,
+}
+
+/// Pass 2: the final arrays, allocated once; each chunk parses into its own slices.
+fn parse_chunks(
+    path: &Path,
+    bytes: &[u8],
+    chunks: &[Range<usize>],
+    scans: &[ChunkScan],
+    bases: &[Counts],
+    total: Counts,
+    plan: &mut MaterialPlan,
+) -> Result<Elements, IoError> {
     let empty_face = Face { v: [VertexId(0); 3], uv: None, n: None, material: None };
-    let mut positions = vec![[0.0f64; 3]; total.v as usize];
-    let mut uvs = vec![[0.0f64; 2]; total.vt as usize];
-    let mut normals = vec![[0.0f32; 3]; total.vn as usize];
-    let mut faces = vec![empty_face; total.tris as usize];
-    let mut polygon_list = Vec::new();
-    {
-        let (mut p, mut t, mut n, mut f) =
-            (&mut positions[..], &mut uvs[..], &mut normals[..], &mut faces[..]);
-        let mut jobs = Vec::with_capacity(scans.len());
-        for (i, s) in scans.iter().enumerate() {
-            let c = &s.counts;
-            let (p0, p1) = std::mem::take(&mut p).split_at_mut(c.v as usize);
-            let (t0, t1) = std::mem::take(&mut t).split_at_mut(c.vt as usize);
-            let (n0, n1) = std::mem::take(&mut n).split_at_mut(c.vn as usize);
-            let (f0, f1) = std::mem::take(&mut f).split_at_mut(c.tris as usize);
-            (p, t, n, f) = (p1, t1, n1, f1);
-            jobs.push(Job {
-                bytes: &bytes[chunks[i].clone()],
-                first_line: bases[i].lines,
-                base: bases[i],
-                total,
-                positions: p0,
-                uvs: t0,
-                normals: n0,
-                faces: f0,
-                material: starts[i],
-                switches: std::mem::take(&mut switches[i]),
-            });
-        }
-        let results: Vec<Result<Vec<Polygon>, LineError>> =
-            jobs.into_par_iter().map(parse_chunk).collect();
-        for r in results {
-            let found = r.map_err(|(line, msg)| IoError::line(path, line, msg))?;
-            polygon_list.extend(found);
-        }
+    let mut out = Elements {
+        positions: vec![[0.0f64; 3]; total.v as usize],
+        uvs: vec![[0.0f64; 2]; total.vt as usize],
+        normals: vec![[0.0f32; 3]; total.vn as usize],
+        faces: vec![empty_face; total.tris as usize],
+        polygons: Vec::new(),
+    };
+    let (mut p, mut t, mut n, mut f) =
+        (&mut out.positions[..], &mut out.uvs[..], &mut out.normals[..], &mut out.faces[..]);
+    let mut jobs = Vec::with_capacity(scans.len());
+    for (i, s) in scans.iter().enumerate() {
+        let c = &s.counts;
+        let (p0, p1) = std::mem::take(&mut p).split_at_mut(c.v as usize);
+        let (t0, t1) = std::mem::take(&mut t).split_at_mut(c.vt as usize);
+        let (n0, n1) = std::mem::take(&mut n).split_at_mut(c.vn as usize);
+        let (f0, f1) = std::mem::take(&mut f).split_at_mut(c.tris as usize);
+        (p, t, n, f) = (p1, t1, n1, f1);
+        jobs.push(Job {
+            bytes: &bytes[chunks[i].clone()],
+            first_line: bases[i].lines,
+            base: bases[i],
+            total,
+            positions: p0,
+            uvs: t0,
+            normals: n0,
+            faces: f0,
+            material: plan.starts[i],
+            switches: std::mem::take(&mut plan.switches[i]),
+        });
     }
-    let clipped = retriangulate(&positions, &mut faces, &polygon_list);
-    if faces.is_empty() {
-        return Err(IoError::line(path, last_line, "no faces"));
+    let results: Vec<Result<Vec<Polygon>, LineError>> =
+        jobs.into_par_iter().map(parse_chunk).collect();
+    for r in results {
+        let found = r.map_err(|(line, msg)| IoError::line(path, line, msg))?;
+        out.polygons.extend(found);
     }
-
-    let mut notes = Vec::new();
-    if polygons > 0 {
-        notes.push(format!(
-            "{polygons} polygons with more than 3 vertices triangulated into {polygon_tris} \
-             triangles ({clipped} non-convex ones by ear clipping in their plane)"
-        ));
-    }
-    let mut warnings = std::mem::take(&mut table.warnings);
-    if lines_points > 0 {
-        warnings.push(Warning::new(
-            WarningCode::ContentSkipped,
-            format!("{lines_points} line/point statements (l, p) skipped"),
-        ));
-    }
-    if other > 0 {
-        warnings.push(Warning::new(
-            WarningCode::ContentSkipped,
-            format!("{other} unsupported statements skipped"),
-        ));
-    }
-    if let Some(w) = assume_lone_texture(&mut faces, &table, explicit_none) {
-        warnings.push(w);
-    }
-
-    Ok(Model {
-        path: path.to_path_buf(),
-        positions,
-        uvs,
-        normals,
-        faces,
-        materials: table.materials,
-        sheets: table.sheets,
-        origin: Origin::Obj(extras),
-        notes,
-        warnings,
-    })
+    Ok(out)
 }
 
 /// Gives the faces that have UVs but no material, or a material no library defines (a

@@ -162,103 +162,45 @@ pub(crate) fn parse(path: &Path, data: &[u8]) -> Result<Header, IoError> {
         };
         match keyword {
             "" => {}
-            "comment" => {
-                let body = rest.trim();
-                let (first, name) = match body.find(|c: char| c.is_ascii_whitespace()) {
-                    Some(i) => (&body[..i], body[i..].trim()),
-                    None => (body, ""),
-                };
-                if first.eq_ignore_ascii_case("TextureFile") && !name.is_empty() {
-                    texture_files.push(name.to_string());
-                } else {
-                    comments.push(body.to_string());
-                }
-            }
+            "comment" => match texture_file(rest) {
+                Some(name) => texture_files.push(name.to_string()),
+                None => comments.push(rest.trim().to_string()),
+            },
             "obj_info" => obj_info.push(rest.trim().to_string()),
             "format" => {
-                let mut it = rest.split_ascii_whitespace();
-                let f = match it.next() {
-                    Some("ascii") => PlyFormat::Ascii,
-                    Some("binary_little_endian") => PlyFormat::BinaryLittleEndian,
-                    Some("binary_big_endian") => PlyFormat::BinaryBigEndian,
-                    other => {
-                        return Err(IoError::line(
-                            path,
-                            line_no,
-                            format!(
-                                "unknown PLY format `{}` (expected ascii, binary_little_endian \
-                                 or binary_big_endian)",
-                                other.unwrap_or("")
-                            ),
-                        ));
-                    }
-                };
+                let f = parse_format(path, line_no, rest)?;
                 if format.is_some() {
                     return Err(IoError::line(path, line_no, "a second `format` line"));
                 }
                 format = Some(f);
             }
             "element" => {
-                let mut it = rest.split_ascii_whitespace();
-                let (Some(name), Some(count), None) = (it.next(), it.next(), it.next()) else {
-                    return Err(IoError::line(path, line_no, "expected `element <name> <count>`"));
-                };
-                let count: u64 = count.parse().map_err(|_| {
-                    IoError::line(
-                        path,
-                        line_no,
-                        format!("element `{name}`: count `{count}` is not a non-negative integer"),
-                    )
-                })?;
-                if elements.iter().any(|e| e.name == name) {
+                let element = parse_element(path, line_no, rest)?;
+                if elements.iter().any(|e| e.name == element.name) {
                     return Err(IoError::line(
                         path,
                         line_no,
-                        format!("element `{name}` is declared twice"),
+                        format!("element `{}` is declared twice", element.name),
                     ));
                 }
-                elements.push(Element { name: name.to_string(), count, props: Vec::new() });
+                elements.push(element);
             }
             "property" => {
                 let Some(element) = elements.last_mut() else {
                     return Err(IoError::line(path, line_no, "`property` before any `element`"));
                 };
-                let words: Vec<&str> = rest.split_ascii_whitespace().collect();
-                let bad_type =
-                    |t: &str| IoError::line(path, line_no, format!("unknown property type `{t}`"));
-                let (kind, name) = match words.as_slice() {
-                    ["list", count, item, name] => {
-                        let count = Scalar::from_name(count).ok_or_else(|| bad_type(count))?;
-                        let item = Scalar::from_name(item).ok_or_else(|| bad_type(item))?;
-                        if !count.is_integer() {
-                            return Err(IoError::line(
-                                path,
-                                line_no,
-                                format!("list `{name}`: the count type must be an integer type"),
-                            ));
-                        }
-                        (Kind::List { count, item }, *name)
-                    }
-                    [ty, name] if *ty != "list" => {
-                        (Kind::Scalar(Scalar::from_name(ty).ok_or_else(|| bad_type(ty))?), *name)
-                    }
-                    _ => {
-                        return Err(IoError::line(
-                            path,
-                            line_no,
-                            "expected `property <type> <name>` or \
-                             `property list <count type> <item type> <name>`",
-                        ));
-                    }
-                };
-                if element.find(name).is_some() {
+                let property = parse_property(path, line_no, rest)?;
+                if element.find(&property.name).is_some() {
                     return Err(IoError::line(
                         path,
                         line_no,
-                        format!("element `{}`: property `{name}` is declared twice", element.name),
+                        format!(
+                            "element `{}`: property `{}` is declared twice",
+                            element.name, property.name
+                        ),
                     ));
                 }
-                element.props.push(Property { name: name.to_string(), kind });
+                element.props.push(property);
             }
             "end_header" => break,
             other => {
@@ -285,6 +227,85 @@ pub(crate) fn parse(path: &Path, data: &[u8]) -> Result<Header, IoError> {
     };
     check_sizes(path, &header, (data.len() - pos) as u64)?;
     Ok(header)
+}
+
+/// The file name of a `comment TextureFile <name>` line (`rest` is the line after `comment`),
+/// or `None` for any other comment.
+fn texture_file(rest: &str) -> Option<&str> {
+    let body = rest.trim();
+    let (first, name) = match body.find(|c: char| c.is_ascii_whitespace()) {
+        Some(i) => (&body[..i], body[i..].trim()),
+        None => (body, ""),
+    };
+    (first.eq_ignore_ascii_case("TextureFile") && !name.is_empty()).then_some(name)
+}
+
+/// The body format named on a `format` line (`rest` is the line after the keyword).
+fn parse_format(path: &Path, line_no: u64, rest: &str) -> Result<PlyFormat, IoError> {
+    let mut it = rest.split_ascii_whitespace();
+    match it.next() {
+        Some("ascii") => Ok(PlyFormat::Ascii),
+        Some("binary_little_endian") => Ok(PlyFormat::BinaryLittleEndian),
+        Some("binary_big_endian") => Ok(PlyFormat::BinaryBigEndian),
+        other => Err(IoError::line(
+            path,
+            line_no,
+            format!(
+                "unknown PLY format `{}` (expected ascii, binary_little_endian or \
+                 binary_big_endian)",
+                other.unwrap_or("")
+            ),
+        )),
+    }
+}
+
+/// The element declared on an `element <name> <count>` line, without properties yet.
+fn parse_element(path: &Path, line_no: u64, rest: &str) -> Result<Element, IoError> {
+    let mut it = rest.split_ascii_whitespace();
+    let (Some(name), Some(count), None) = (it.next(), it.next(), it.next()) else {
+        return Err(IoError::line(path, line_no, "expected `element <name> <count>`"));
+    };
+    let count: u64 = count.parse().map_err(|_| {
+        IoError::line(
+            path,
+            line_no,
+            format!("element `{name}`: count `{count}` is not a non-negative integer"),
+        )
+    })?;
+    Ok(Element { name: name.to_string(), count, props: Vec::new() })
+}
+
+/// The property declared on a `property <type> <name>` or
+/// `property list <count type> <item type> <name>` line.
+fn parse_property(path: &Path, line_no: u64, rest: &str) -> Result<Property, IoError> {
+    let words: Vec<&str> = rest.split_ascii_whitespace().collect();
+    let bad_type = |t: &str| IoError::line(path, line_no, format!("unknown property type `{t}`"));
+    let (kind, name) = match words.as_slice() {
+        ["list", count, item, name] => {
+            let count = Scalar::from_name(count).ok_or_else(|| bad_type(count))?;
+            let item = Scalar::from_name(item).ok_or_else(|| bad_type(item))?;
+            if !count.is_integer() {
+                return Err(IoError::line(
+                    path,
+                    line_no,
+                    format!("list `{name}`: the count type must be an integer type"),
+                ));
+            }
+            (Kind::List { count, item }, *name)
+        }
+        [ty, name] if *ty != "list" => {
+            (Kind::Scalar(Scalar::from_name(ty).ok_or_else(|| bad_type(ty))?), *name)
+        }
+        _ => {
+            return Err(IoError::line(
+                path,
+                line_no,
+                "expected `property <type> <name>` or \
+                 `property list <count type> <item type> <name>`",
+            ));
+        }
+    };
+    Ok(Property { name: name.to_string(), kind })
 }
 
 /// Refuses a header whose elements cannot fit in the body, even at their smallest.

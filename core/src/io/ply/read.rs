@@ -84,6 +84,22 @@ struct Reader<'p> {
     polygons: Vec<Polygon>,
 }
 
+/// One face record as read: its vertex indices, its texcoord values and its texnumber.
+struct FaceRecord {
+    idx: Vec<u32>,
+    tc: Vec<f64>,
+    texnumber: Option<f64>,
+}
+
+/// What the face loop counts for its notes and warnings.
+#[derive(Default)]
+struct FaceTally {
+    polygons: u64,
+    extra_tris: u64,
+    /// Faces without a texnumber were given the first of several sheets.
+    multi_default: bool,
+}
+
 /// Builds the "element `face` #12" prefix of messages.
 fn at(e: &Element, i: u64) -> String {
     format!("element `{}` #{i}", e.name)
@@ -378,14 +394,65 @@ impl<'p> Reader<'p> {
     }
 
     fn read_faces<S: Source>(&mut self, src: &mut S, ei: usize) -> Result<(), IoError> {
-        let e = &self.header.elements[ei];
-        let count = e.count;
-        let nv = self.vertex.map_or(0, |v| self.header.elements[v].count);
+        let count = self.header.elements[ei].count;
         let nsheets = self.model.sheets.len();
         let has_texnumber = self.froles.contains(&FaceRole::TexNumber);
-        let (vuv, vnormals) = self.vplan.as_ref().map_or((false, false), |p| (p.uvs, p.normals));
-        // Reserve for triangles, bounded by how many the body could hold: a face is at least its
-        // declared fixed part plus three indices.
+        self.reserve_faces(ei);
+        let kinds: Vec<Kind> = self.header.elements[ei].props.iter().map(|p| p.kind).collect();
+        let roles = std::mem::take(&mut self.froles);
+        // Scratch buffers reused by every face, so the loop does not allocate.
+        let mut rec =
+            FaceRecord { idx: Vec::with_capacity(16), tc: Vec::with_capacity(32), texnumber: None };
+        let mut tally = FaceTally::default();
+        for i in 0..count {
+            self.read_face_record(src, ei, i, &kinds, &roles, &mut rec)?;
+            let n = rec.idx.len();
+            if n < 3 {
+                return Err(src
+                    .error(self.path, format!("face {i}: {n} vertices, a face needs at least 3")));
+            }
+            if !rec.tc.is_empty() && rec.tc.len() != 2 * n {
+                return Err(src.error(
+                    self.path,
+                    format!(
+                        "face {i}: {} texcoord values for {n} corners (expected {})",
+                        rec.tc.len(),
+                        2 * n
+                    ),
+                ));
+            }
+            let material = self.face_material(src, i, rec.texnumber, &mut tally)?;
+            self.push_face(i, &rec, material, &mut tally)?;
+        }
+        self.froles = roles;
+        if tally.polygons > 0 {
+            self.notes.push(format!(
+                "{} polygons triangulated in place ({} extra triangles)",
+                tally.polygons, tally.extra_tris
+            ));
+        }
+        if tally.multi_default {
+            self.warnings.push(Warning::new(
+                WarningCode::TextureAssignment,
+                format!(
+                    "no texnumber property but {nsheets} TextureFile comments: faces use the first"
+                ),
+            ));
+        }
+        if nsheets == 0 && has_texnumber {
+            self.warnings.push(Warning::new(
+                WarningCode::TextureAssignment,
+                "texnumber ignored: no TextureFile comments",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Reserves room for the triangles and per-face UV records of face element `ei`, bounded by
+    /// how many the body could hold.
+    fn reserve_faces(&mut self, ei: usize) {
+        let e = &self.header.elements[ei];
+        // A face is at least its declared fixed part plus three indices.
         let idx_size = e
             .props
             .iter()
@@ -399,7 +466,7 @@ impl<'p> Reader<'p> {
             PlyFormat::Ascii => 2 * (e.props.len() + 3),
             _ => e.props.iter().map(|p| p.kind.min_size()).sum::<usize>() + 3 * idx_size,
         };
-        let face_reserve = (count as usize).min(self.body_len / per_face.max(1));
+        let face_reserve = (e.count as usize).min(self.body_len / per_face.max(1));
         self.model.faces.reserve_exact(face_reserve);
         // Per-face UV records: three per triangle, and never more than the body could encode
         // (two values per record).
@@ -413,146 +480,139 @@ impl<'p> Reader<'p> {
         if let Some(item) = tc_item {
             self.model.uvs.reserve_exact((3 * face_reserve).min(self.body_len / (2 * item)));
         }
+    }
 
-        let kinds: Vec<Kind> = e.props.iter().map(|p| p.kind).collect();
-        let roles = std::mem::take(&mut self.froles);
-        // Scratch buffers reused by every face, so the loop does not allocate.
-        let mut idx: Vec<u32> = Vec::with_capacity(16);
-        let mut tc: Vec<f64> = Vec::with_capacity(32);
-        let (mut polygons, mut extra_tris, mut multi_default) = (0u64, 0u64, false);
-        for i in 0..count {
-            idx.clear();
-            tc.clear();
-            let mut texnumber: Option<f64> = None;
-            for (pi, (kind, role)) in kinds.iter().zip(&roles).enumerate() {
-                match (*kind, role) {
-                    (Kind::List { count, item }, FaceRole::Indices) => {
-                        let n = self.list_len(src, ei, i, pi, count, item)?;
-                        for _ in 0..n {
-                            let v = src.read(item).map_err(|f| self.fail(src, ei, i, pi, f))?;
-                            if !(v >= 0.0 && v < nv as f64 && v.fract() == 0.0) {
-                                return Err(src.error(
-                                    self.path,
-                                    format!(
-                                        "face {i}: vertex index {v} is out of range \
-                                         ({nv} vertices declared)"
-                                    ),
-                                ));
-                            }
-                            idx.push(v as u32);
+    /// Reads the properties of face `i` into `rec`: its vertex indices (checked against the
+    /// declared vertices), its texcoord list and its texnumber; skips the others.
+    fn read_face_record<S: Source>(
+        &self,
+        src: &mut S,
+        ei: usize,
+        i: u64,
+        kinds: &[Kind],
+        roles: &[FaceRole],
+        rec: &mut FaceRecord,
+    ) -> Result<(), IoError> {
+        let nv = self.vertex.map_or(0, |v| self.header.elements[v].count);
+        rec.idx.clear();
+        rec.tc.clear();
+        rec.texnumber = None;
+        for (pi, (kind, role)) in kinds.iter().zip(roles).enumerate() {
+            match (*kind, role) {
+                (Kind::List { count, item }, FaceRole::Indices) => {
+                    let n = self.list_len(src, ei, i, pi, count, item)?;
+                    for _ in 0..n {
+                        let v = src.read(item).map_err(|f| self.fail(src, ei, i, pi, f))?;
+                        if !(v >= 0.0 && v < nv as f64 && v.fract() == 0.0) {
+                            return Err(src.error(
+                                self.path,
+                                format!(
+                                    "face {i}: vertex index {v} is out of range \
+                                     ({nv} vertices declared)"
+                                ),
+                            ));
                         }
-                    }
-                    (Kind::List { count, item }, FaceRole::TexCoord) => {
-                        let n = self.list_len(src, ei, i, pi, count, item)?;
-                        for _ in 0..n {
-                            tc.push(src.read(item).map_err(|f| self.fail(src, ei, i, pi, f))?);
-                        }
-                    }
-                    (Kind::Scalar(t), FaceRole::TexNumber) => {
-                        texnumber = Some(src.read(t).map_err(|f| self.fail(src, ei, i, pi, f))?);
-                    }
-                    (Kind::Scalar(t), _) => {
-                        src.skip(t, 1).map_err(|f| self.fail(src, ei, i, pi, f))?;
-                    }
-                    (Kind::List { count, item }, _) => {
-                        let n = self.list_len(src, ei, i, pi, count, item)?;
-                        src.skip(item, n).map_err(|f| self.fail(src, ei, i, pi, f))?;
+                        rec.idx.push(v as u32);
                     }
                 }
-            }
-            let n = idx.len();
-            if n < 3 {
-                return Err(src
-                    .error(self.path, format!("face {i}: {n} vertices, a face needs at least 3")));
-            }
-            if !tc.is_empty() && tc.len() != 2 * n {
-                return Err(src.error(
-                    self.path,
-                    format!(
-                        "face {i}: {} texcoord values for {n} corners (expected {})",
-                        tc.len(),
-                        2 * n
-                    ),
-                ));
-            }
-            let material = if nsheets == 0 {
-                None
-            } else if let Some(t) = texnumber {
-                if t == -1.0 {
-                    // The conventional "no texture" value.
-                    None
-                } else if t >= 0.0 && t < nsheets as f64 && t.fract() == 0.0 {
-                    Some(MaterialId(t as u32))
-                } else {
-                    return Err(src.error(
-                        self.path,
-                        format!(
-                            "face {i}: texnumber {t} is out of range ({nsheets} TextureFile \
-                             comments)"
-                        ),
-                    ));
+                (Kind::List { count, item }, FaceRole::TexCoord) => {
+                    let n = self.list_len(src, ei, i, pi, count, item)?;
+                    for _ in 0..n {
+                        rec.tc.push(src.read(item).map_err(|f| self.fail(src, ei, i, pi, f))?);
+                    }
                 }
-            } else {
-                multi_default |= nsheets > 1;
-                Some(MaterialId(0))
-            };
-            // Per-face UV records: one per corner, shared by the polygon's fan triangles.
-            let uv_base = self.model.uvs.len();
-            if !tc.is_empty() {
-                if uv_base + n > u32::MAX as usize {
-                    return Err(IoError::unsupported(
-                        self.path,
-                        format!("face {i}: more than {} UV records", u32::MAX),
-                    ));
+                (Kind::Scalar(t), FaceRole::TexNumber) => {
+                    rec.texnumber = Some(src.read(t).map_err(|f| self.fail(src, ei, i, pi, f))?);
                 }
-                for c in tc.chunks_exact(2) {
-                    self.model.uvs.push([c[0], c[1]]);
+                (Kind::Scalar(t), _) => {
+                    src.skip(t, 1).map_err(|f| self.fail(src, ei, i, pi, f))?;
+                }
+                (Kind::List { count, item }, _) => {
+                    let n = self.list_len(src, ei, i, pi, count, item)?;
+                    src.skip(item, n).map_err(|f| self.fail(src, ei, i, pi, f))?;
                 }
             }
-            if n > 3 {
-                polygons += 1;
-                extra_tris += (n - 3) as u64;
-                let first_face = self.model.faces.len();
-                self.polygons.push(Polygon { first_face, corners: n as u32 });
-            }
-            for k in 1..n - 1 {
-                let corners = [0, k, k + 1];
-                let v = corners.map(|c| VertexId(idx[c]));
-                let uv = if !tc.is_empty() {
-                    Some(corners.map(|c| UvId::from_usize(uv_base + c)))
-                } else if vuv {
-                    Some(v.map(|x| UvId(x.0)))
-                } else {
-                    None
-                };
-                let nrm = vnormals.then(|| v.map(|x| NormalId(x.0)));
-                self.model.faces.push(Face { v, uv, n: nrm, material });
-            }
-            if self.model.faces.len() > u32::MAX as usize {
+        }
+        Ok(())
+    }
+
+    /// The material of face `i` from its texnumber: `-1` means none, no texnumber means the
+    /// first sheet's (noted in `tally` when there are several), no sheets means none.
+    fn face_material<S: Source>(
+        &self,
+        src: &S,
+        i: u64,
+        texnumber: Option<f64>,
+        tally: &mut FaceTally,
+    ) -> Result<Option<MaterialId>, IoError> {
+        let nsheets = self.model.sheets.len();
+        if nsheets == 0 {
+            return Ok(None);
+        }
+        let Some(t) = texnumber else {
+            tally.multi_default |= nsheets > 1;
+            return Ok(Some(MaterialId(0)));
+        };
+        if t == -1.0 {
+            // The conventional "no texture" value.
+            Ok(None)
+        } else if t >= 0.0 && t < nsheets as f64 && t.fract() == 0.0 {
+            Ok(Some(MaterialId(t as u32)))
+        } else {
+            Err(src.error(
+                self.path,
+                format!("face {i}: texnumber {t} is out of range ({nsheets} TextureFile comments)"),
+            ))
+        }
+    }
+
+    /// Adds face `i`'s UV records and its fan triangles to the model, and records a polygon
+    /// for the later re-triangulation.
+    fn push_face(
+        &mut self,
+        i: u64,
+        rec: &FaceRecord,
+        material: Option<MaterialId>,
+        tally: &mut FaceTally,
+    ) -> Result<(), IoError> {
+        let (vuv, vnormals) = self.vplan.as_ref().map_or((false, false), |p| (p.uvs, p.normals));
+        let n = rec.idx.len();
+        // Per-face UV records: one per corner, shared by the polygon's fan triangles.
+        let uv_base = self.model.uvs.len();
+        if !rec.tc.is_empty() {
+            if uv_base + n > u32::MAX as usize {
                 return Err(IoError::unsupported(
                     self.path,
-                    format!("more than {} triangles after triangulation", u32::MAX),
+                    format!("face {i}: more than {} UV records", u32::MAX),
                 ));
             }
+            for c in rec.tc.chunks_exact(2) {
+                self.model.uvs.push([c[0], c[1]]);
+            }
         }
-        self.froles = roles;
-        if polygons > 0 {
-            self.notes.push(format!(
-                "{polygons} polygons triangulated in place ({extra_tris} extra triangles)"
-            ));
+        if n > 3 {
+            tally.polygons += 1;
+            tally.extra_tris += (n - 3) as u64;
+            let first_face = self.model.faces.len();
+            self.polygons.push(Polygon { first_face, corners: n as u32 });
         }
-        if multi_default {
-            self.warnings.push(Warning::new(
-                WarningCode::TextureAssignment,
-                format!(
-                    "no texnumber property but {nsheets} TextureFile comments: faces use the first"
-                ),
-            ));
+        for k in 1..n - 1 {
+            let corners = [0, k, k + 1];
+            let v = corners.map(|c| VertexId(rec.idx[c]));
+            let uv = if !rec.tc.is_empty() {
+                Some(corners.map(|c| UvId::from_usize(uv_base + c)))
+            } else if vuv {
+                Some(v.map(|x| UvId(x.0)))
+            } else {
+                None
+            };
+            let nrm = vnormals.then(|| v.map(|x| NormalId(x.0)));
+            self.model.faces.push(Face { v, uv, n: nrm, material });
         }
-        if nsheets == 0 && has_texnumber {
-            self.warnings.push(Warning::new(
-                WarningCode::TextureAssignment,
-                "texnumber ignored: no TextureFile comments",
+        if self.model.faces.len() > u32::MAX as usize {
+            return Err(IoError::unsupported(
+                self.path,
+                format!("more than {} triangles after triangulation", u32::MAX),
             ));
         }
         Ok(())
