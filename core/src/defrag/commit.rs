@@ -2,9 +2,10 @@
 //! chart lists, grid, sums), the roll-back of a failed one from the undo logs, and the record of
 //! a commit that lets another engine replay it (see `speculate`).
 
-use super::ops::{OpGeometry, dist};
+use super::ops::OpGeometry;
 use super::state::{Engine, NONE, orig_tri};
 use super::undo::Saved;
+use crate::geometry::dist;
 use crate::geometry::{isometric_energy, signed_area2};
 use crate::topology::{HalfEdgeId, UvVertId};
 
@@ -35,10 +36,10 @@ impl Engine<'_> {
         CommitRecord {
             g: *g,
             energies,
-            free: self.free.clone(),
-            seeds: self.seeds.clone(),
-            opt_faces: self.opt_faces.clone(),
-            moved: self.moved.clone(),
+            free: self.area.free.clone(),
+            seeds: self.area.seeds.clone(),
+            opt_faces: self.area.opt_faces.clone(),
+            moved: self.trial.moved.clone(),
             pos: values(&self.log.pos, &self.t.uv_pos),
             corner: values(&self.log.corner, &self.t.corner_uv),
             twin: values(&self.log.twin, &self.t.he_uv_twin),
@@ -64,10 +65,10 @@ impl Engine<'_> {
         write(&mut self.log.head, &mut self.fan_head, &r.head);
         write(&mut self.log.tail, &mut self.fan_tail, &r.tail);
         write(&mut self.log.next, &mut self.fan_next, &r.next);
-        self.free.clone_from(&r.free);
-        self.seeds.clone_from(&r.seeds);
-        self.opt_faces.clone_from(&r.opt_faces);
-        self.moved.clone_from(&r.moved);
+        self.area.free.clone_from(&r.free);
+        self.area.seeds.clone_from(&r.seeds);
+        self.area.opt_faces.clone_from(&r.opt_faces);
+        self.trial.moved.clone_from(&r.moved);
         // Every face with a corner on a vertex that moved or changed: a superset of the faces the
         // attempt itself put into the grid, which is all the grid needs (see `grid`).
         let ep = self.next_epoch();
@@ -80,8 +81,8 @@ impl Engine<'_> {
             let mut c = self.fan_head[v];
             while c != NONE {
                 let f = c / 3;
-                if self.face_stamp[f as usize] != ep {
-                    self.face_stamp[f as usize] = ep;
+                if self.shared.face_stamp[f as usize] != ep {
+                    self.shared.face_stamp[f as usize] = ep;
                     let tri = self.tri(f as usize);
                     self.grid.insert(f, &tri);
                 }
@@ -98,16 +99,16 @@ impl Engine<'_> {
         // The re-optimized and the fused vertices change the geometry of the seams through them;
         // the rest of the moved chart only moved rigidly.
         self.commits += 1;
-        for &v in &self.free {
+        for &v in &self.area.free {
             self.vert_changed[v as usize] = self.commits;
         }
-        for &(v, _) in &self.seeds {
+        for &(v, _) in &self.area.seeds {
             self.vert_changed[v as usize] = self.commits;
         }
         let mut d_area2 = 0.0;
         let mut d_perimeter = 0.0;
-        for i in 0..self.opt_faces.len() {
-            let f = self.opt_faces[i] as usize;
+        for i in 0..self.area.opt_faces.len() {
+            let f = self.area.opt_faces[i] as usize;
             let (before, after) = (self.tri_before(f), self.tri(f));
             for k in 0..3 {
                 let h = 3 * f + k;
@@ -132,7 +133,7 @@ impl Engine<'_> {
             let h = h as usize;
             let was_border = self.log.twin.before(&self.t.he_uv_twin, h).is_none();
             // `opt_faces` is sorted; the `face_opt` marks are not set when a record is replayed.
-            let optimized = self.opt_faces.binary_search(&((h / 3) as u32)).is_ok();
+            let optimized = self.area.opt_faces.binary_search(&((h / 3) as u32)).is_ok();
             if optimized || !was_border || self.t.he_uv_twin[h].is_none() {
                 continue;
             }
@@ -144,7 +145,7 @@ impl Engine<'_> {
         self.border_len += d_perimeter;
         let local = if out_den > 0.0 { out_num / out_den } else { 0.0 };
         self.report.max_accepted_local_energy = self.report.max_accepted_local_energy.max(local);
-        self.report.optimized_faces += self.opt_faces.len() as u64;
+        self.report.optimized_faces += self.area.opt_faces.len() as u64;
 
         let (a, b) = (g.a.idx(), g.b.idx());
         if g.inter {
@@ -153,7 +154,7 @@ impl Engine<'_> {
                 self.t.face_chart[f as usize] = g.a;
             }
             self.chart_faces[a].extend_from_slice(&faces);
-            for &v in &self.moved {
+            for &v in &self.trial.moved {
                 self.t.uv_chart[v as usize] = g.a;
             }
             let cb = self.t.charts[b].clone();
@@ -170,7 +171,7 @@ impl Engine<'_> {
         ca.perimeter_uv += d_perimeter;
         // The bbox only grows: it bounds the moved chart and every re-optimized vertex.
         let mut bbox = ca.bbox;
-        for &v in self.moved.iter().chain(&self.free) {
+        for &v in self.trial.moved.iter().chain(&self.area.free) {
             let p = self.t.uv_pos[v as usize];
             bbox = [bbox[0].min(p[0]), bbox[1].min(p[1]), bbox[2].max(p[0]), bbox[3].max(p[1])];
         }

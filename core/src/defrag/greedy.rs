@@ -8,7 +8,8 @@ use std::collections::BinaryHeap;
 use std::time::Instant;
 
 use super::ops::{EngineOp, OpGeometry, OpState};
-use super::state::{Engine, MergedLayout, OrdF64};
+use super::ord::OrdF64;
+use super::state::{Engine, MergedLayout};
 use super::{DefragError, MergeOptions, MergeReport, RejectReason, StopReason};
 use crate::plugin::{LocalSolver, MergeScorer, Score, Veto};
 use crate::topology::{ChartId, OpKind, Topology};

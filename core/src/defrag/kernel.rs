@@ -10,8 +10,8 @@
 //! moved into its kernel unfolds every triangle around it and breaks none, so each move makes
 //! progress; the solver then starts from a layout without folds and keeps it that way.
 
-use super::ops::dist;
 use crate::geometry::Tri2;
+use crate::geometry::dist;
 
 /// How many sweeps over the folded triangles are made before giving up.
 const MAX_SWEEPS: u32 = 8;

@@ -6,15 +6,31 @@
 //! - `undo`: first-old-value logs, so a rejected merge is rolled back in O(patch) and the state
 //!   before the merge can be read back during the checks;
 //! - `grid`: a spatial grid of faces for the overlap checks;
-//! - `state`: the mutable engine state (UV vertex fans, per-face and per-chart caches);
-//! - `ops`: the dynamic operation table, the operation geometry (vertex pairs, rigid fit) and
-//!   the scorer features;
+//! - `state`: the engine: its mutable state (UV vertex fans, per-face and per-chart caches,
+//!   sums, the operation table of `ops::table`) and one scratch field per module;
+//! - `ops`: the operation geometry (vertex pairs, rigid fit) and the scorer features;
 //! - `patch`: the optimization area, the local problem and its topology check;
-//! - `attempt`: one merge attempt with its checks, commit and rollback;
+//! - `kernel` and `separate`: repairs of a fused start and of a solve's leftover overlaps;
+//! - `verdict`: the checks of a solved attempt; `commit`: its commit, rollback and record;
+//! - `attempt`: one merge attempt from alignment to commit or rollback;
 //! - `greedy`: the priority queue and the rescoring after each accepted merge;
 //! - `speculate`: the last round's queue with a second engine judging operations ahead of it;
+//! - `clusters`: parallel queues over clusters of charts;
 //! - `zero_area`: charts of zero-area faces joined to a neighbouring chart at the end;
 //! - `unfold`: charts folded flat onto themselves laid out again as a flat net at the end.
+//!
+//! Layers: a module imports only from the layers below its own.
+//! 0. `undo`, `grid`, `kernel`, `ord`, `output`: plain data and pure functions that know nothing
+//!    of the engine;
+//! 1. `ops::table` and the scratch types (`ops::scratch`, `patch::scratch`, `separate::scratch`,
+//!    `verdict::scratch`, `attempt::scratch`);
+//! 2. `state`: the `Engine` struct, which holds the state and one scratch struct per module;
+//! 3. `ops`, `patch`, `unfold`; 4. `commit`, `separate`, `zero_area`, `untangle`; 5. `verdict`;
+//!    6. `attempt`; 7. `greedy`, `clusters`; 8. `speculate`.
+//!
+//! Each scratch struct is declared in its module's `scratch.rs`, a leaf that imports nothing
+//! above layer 1, so that `state` can hold it without importing the module's logic; fields
+//! other modules do not read stay visible to their own module only.
 
 mod attempt;
 mod clusters;
@@ -23,6 +39,7 @@ mod greedy;
 mod grid;
 mod kernel;
 mod ops;
+mod ord;
 mod output;
 mod patch;
 mod separate;

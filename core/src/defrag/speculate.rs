@@ -32,7 +32,8 @@ use std::time::Instant;
 use super::commit::CommitRecord;
 use super::greedy::Queue;
 use super::ops::EngineOp;
-use super::state::{Engine, OrdF64};
+use super::ord::OrdF64;
+use super::state::Engine;
 use super::{MergeReport, RejectReason, StopReason};
 use crate::plugin::{LocalSolver, MergeScorer};
 use crate::topology::ChartId;
@@ -357,18 +358,18 @@ impl Engine<'_> {
         solver: &mut dyn LocalSolver,
     ) -> Judged {
         let report = std::mem::take(&mut self.report);
-        self.record_checks = true;
-        self.global_checks.clear();
+        self.checks.record_checks = true;
+        self.checks.global_checks.clear();
         let energy_num = self.energy_num;
         let outcome = self.attempt_speculative(op, solver);
-        self.record_checks = false;
+        self.checks.record_checks = false;
         Judged {
             op,
             version,
             at,
             charts,
             energy_num,
-            checks: std::mem::take(&mut self.global_checks),
+            checks: std::mem::take(&mut self.checks.global_checks),
             outcome,
             report: std::mem::replace(&mut self.report, report),
         }

@@ -3,12 +3,17 @@
 //! energy), per-chart face lists, the atlas-wide energy and border sums, the face grid, the undo
 //! logs and the scratch buffers reused by every attempt.
 
+use super::attempt::scratch::AttemptScratch;
 use super::grid::FaceGrid;
-use super::ops::{EngineOp, initial_ops};
+use super::kernel::KernelScratch;
+use super::ops::scratch::OpScratch;
+use super::ops::table::{EngineOp, initial_ops};
+use super::patch::scratch::PatchScratch;
+use super::separate::scratch::SeparateScratch;
 use super::undo::Saved;
+use super::verdict::scratch::VerdictScratch;
 use super::{MergeOptions, MergeReport};
 use crate::geometry::{Tri2, energy_weight, isometric_energy, signed_area2};
-use crate::plugin::LocalProblem;
 use crate::topology::{ChartId, HalfEdgeId, Topology, UvVertId};
 
 pub(crate) use crate::index::NONE;
@@ -27,105 +32,73 @@ pub struct MergedLayout {
 /// The undo logs of one attempt, one per table it may write.
 #[derive(Debug)]
 pub(crate) struct Logs {
-    pub pos: Saved<[f64; 2]>,
-    pub corner: Saved<UvVertId>,
-    pub twin: Saved<HalfEdgeId>,
-    pub head: Saved<u32>,
-    pub tail: Saved<u32>,
-    pub next: Saved<u32>,
+    pub(super) pos: Saved<[f64; 2]>,
+    pub(super) corner: Saved<UvVertId>,
+    pub(super) twin: Saved<HalfEdgeId>,
+    pub(super) head: Saved<u32>,
+    pub(super) tail: Saved<u32>,
+    pub(super) next: Saved<u32>,
 }
 
 /// The engine state. Field groups: layout fans, face caches, chart lists, sums, operations,
 /// logs and scratch.
 pub(crate) struct Engine<'t> {
-    pub t: &'t mut Topology,
-    pub opts: MergeOptions,
+    pub(super) t: &'t mut Topology,
+    pub(super) opts: MergeOptions,
     /// First and last corner of each UV vertex's fan, and the next corner of each corner.
-    pub fan_head: Vec<u32>,
-    pub fan_tail: Vec<u32>,
-    pub fan_next: Vec<u32>,
+    pub(super) fan_head: Vec<u32>,
+    pub(super) fan_tail: Vec<u32>,
+    pub(super) fan_next: Vec<u32>,
     /// Twice the signed area of each face's current UV triangle.
-    pub face_area2: Vec<f64>,
+    pub(super) face_area2: Vec<f64>,
     /// Each face's energy weight (twice its original area) and weight × energy.
-    pub face_weight: Vec<f64>,
-    pub face_energy: Vec<f64>,
-    pub face_optimized: Vec<bool>,
+    pub(super) face_weight: Vec<f64>,
+    pub(super) face_energy: Vec<f64>,
+    pub(super) face_optimized: Vec<bool>,
     /// Faces of the charts mirrored at the start: their ARAP targets are mirrored too, so every
     /// target has the orientation its triangle should have in the current layout.
-    pub face_mirrored: Vec<bool>,
+    pub(super) face_mirrored: Vec<bool>,
     /// Faces of each live chart (empty for charts merged into another and for frozen ones).
-    pub chart_faces: Vec<Vec<u32>>,
+    pub(super) chart_faces: Vec<Vec<u32>>,
     /// Σ weight × energy and Σ weight over the atlas.
-    pub energy_num: f64,
-    pub energy_den: f64,
+    pub(super) energy_num: f64,
+    pub(super) energy_den: f64,
     /// Total UV border length now and in the input.
-    pub border_len: f64,
-    pub border_len_input: f64,
-    pub grid: FaceGrid,
+    pub(super) border_len: f64,
+    pub(super) border_len_input: f64,
+    pub(super) grid: FaceGrid,
     /// The grid's entries after its last rebuild (see `maybe_compact_grid`).
-    pub grid_live: usize,
-    pub log: Logs,
-    pub ops: Vec<EngineOp>,
-    pub chart_ops: Vec<Vec<u32>>,
+    pub(super) grid_live: usize,
+    pub(super) log: Logs,
+    pub(super) ops: Vec<EngineOp>,
+    pub(super) chart_ops: Vec<Vec<u32>>,
     /// Accepted merges so far, and for each UV vertex the count at which it last changed other
     /// than by a rigid motion of its chart (moved by a solve, or fused): see `CachedGeometry`.
-    pub commits: u32,
-    pub vert_changed: Vec<u32>,
-    pub report: MergeReport,
-    // Scratch buffers, reused by every attempt (see `attempt` and `patch` for their meaning).
-    pub pairs: Vec<[UvVertId; 2]>,
-    pub pts: Vec<([f64; 2], [f64; 2])>,
-    pub vert_stamp: Vec<u32>,
-    pub face_stamp: Vec<u32>,
-    pub epoch: u32,
-    pub vert_local: Vec<u32>,
-    pub vert_budget: Vec<f64>,
-    pub vert_frozen: Vec<bool>,
-    pub moved: Vec<u32>,
-    pub seeds: Vec<(u32, f64)>,
-    pub free: Vec<u32>,
-    pub opt_faces: Vec<u32>,
-    /// The face of each triangle of `problem`: the optimization area but for the faces whose
-    /// corners share a UV vertex (see `build_problem`).
-    pub problem_faces: Vec<u32>,
-    pub local_verts: Vec<u32>,
-    pub problem: LocalProblem,
-    pub start_uv: Vec<[f64; 2]>,
-    pub candidates: Vec<u32>,
-    pub offenders: Vec<u32>,
-    pub heap: std::collections::BinaryHeap<(OrdF64, u32)>,
-    pub uf: Vec<u32>,
-    pub groups: Vec<(u32, u32)>,
-    pub face_opt: Vec<bool>,
-    pub frozen_list: Vec<u32>,
-    pub base_fixed: Vec<bool>,
-    /// What each problem triangle's doubled area must satisfy, and the unfolding buffers.
-    pub area_bounds: Vec<super::kernel::AreaBound>,
-    /// Vertices and faces of the overlap separation (see `separate`).
-    pub sep_verts: Vec<u32>,
-    pub sep_faces: Vec<u32>,
-    pub sep_pairs: Vec<u32>,
-    pub sep_tests: Vec<(u32, super::separate::Other)>,
-    /// The triangles of the faces around the moving vertex, and of the faces that stay put.
-    pub sep_fan_tris: Vec<Tri2>,
-    pub sep_static: Vec<Tri2>,
-    /// The box each fan face can sweep while its vertex moves (see `separate_vertex`).
-    pub sep_swept: Vec<[f64; 4]>,
-    pub kernel: super::kernel::KernelScratch,
-    /// While `record_checks` is set, the energies of every budget check (out, in), so that a
-    /// speculative attempt can be judged again against another atlas sum (see `speculate`).
-    pub record_checks: bool,
-    pub global_checks: Vec<(f64, f64)>,
-    /// The chart held still by the attempt in progress (see `MergeOptions::one_sided`).
-    pub hold: Option<ChartId>,
+    pub(super) commits: u32,
+    pub(super) vert_changed: Vec<u32>,
+    pub(super) report: MergeReport,
     /// Whether the queue is in its first pass, deferring the merges over their ration (see
     /// `MergeOptions::defer`).
-    pub deferring: bool,
-    /// The first solve of each deferred operation's attempt, by operation (see `SolveMemo`), and
-    /// the one of the attempt in progress (valid while `memo_filled`) until its outcome is known.
-    pub solve_memo: std::collections::HashMap<u32, super::attempt::SolveMemo>,
-    pub memo_scratch: super::attempt::SolveMemo,
-    pub memo_filled: bool,
+    pub(super) deferring: bool,
+    // The scratch of each module, reused by every attempt: one field per module, each owned by
+    // the module named in its type's path.
+    pub(super) shared: SharedScratch,
+    pub(super) pairing: OpScratch,
+    pub(super) area: PatchScratch,
+    pub(super) sep: SeparateScratch,
+    pub(super) checks: VerdictScratch,
+    pub(super) trial: AttemptScratch,
+    pub(super) kernel: KernelScratch,
+}
+
+/// The marks and the grid query buffer that several modules use.
+pub(crate) struct SharedScratch {
+    /// Per UV vertex and per face, the epoch that last marked it (see `Engine::next_epoch`).
+    pub(super) vert_stamp: Vec<u32>,
+    pub(super) face_stamp: Vec<u32>,
+    pub(super) epoch: u32,
+    /// The faces a grid query returned.
+    pub(super) candidates: Vec<u32>,
 }
 
 /// The state of an engine that a cluster's fork copies (everything but scratch and logs).
@@ -150,24 +123,6 @@ pub(crate) struct Parts {
     commits: u32,
     vert_changed: Vec<u32>,
     report: MergeReport,
-}
-
-/// An `f64` ordered by `total_cmp`, for heaps.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct OrdF64(pub f64);
-
-impl Eq for OrdF64 {}
-
-impl PartialOrd for OrdF64 {
-    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(other))
-    }
-}
-
-impl Ord for OrdF64 {
-    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        self.0.total_cmp(&other.0)
-    }
 }
 
 impl<'t> Engine<'t> {
@@ -359,59 +314,32 @@ impl<'t> Engine<'t> {
             commits: p.commits,
             vert_changed: p.vert_changed,
             report: p.report,
-            pairs: Vec::new(),
-            pts: Vec::new(),
-            vert_stamp: vec![0; nv],
-            face_stamp: vec![0; nf],
-            epoch: 0,
-            vert_local: vec![NONE; nv],
-            vert_budget: vec![f64::NAN; nv],
-            vert_frozen: vec![false; nv],
-            moved: Vec::new(),
-            seeds: Vec::new(),
-            free: Vec::new(),
-            opt_faces: Vec::new(),
-            problem_faces: Vec::new(),
-            local_verts: Vec::new(),
-            problem: LocalProblem::default(),
-            start_uv: Vec::new(),
-            candidates: Vec::new(),
-            offenders: Vec::new(),
-            heap: std::collections::BinaryHeap::new(),
-            uf: Vec::new(),
-            groups: Vec::new(),
-            face_opt: vec![false; nf],
-            frozen_list: Vec::new(),
-            area_bounds: Vec::new(),
-            sep_verts: Vec::new(),
-            sep_faces: Vec::new(),
-            sep_pairs: Vec::new(),
-            sep_tests: Vec::new(),
-            sep_fan_tris: Vec::new(),
-            sep_static: Vec::new(),
-            sep_swept: Vec::new(),
-            kernel: Default::default(),
-            base_fixed: Vec::new(),
-            record_checks: false,
-            global_checks: Vec::new(),
-            hold: None,
             deferring: false,
-            solve_memo: Default::default(),
-            memo_scratch: Default::default(),
-            memo_filled: false,
+            shared: SharedScratch {
+                vert_stamp: vec![0; nv],
+                face_stamp: vec![0; nf],
+                epoch: 0,
+                candidates: Vec::new(),
+            },
+            pairing: OpScratch::default(),
+            area: PatchScratch::new(nv, nf),
+            sep: SeparateScratch::default(),
+            checks: VerdictScratch::default(),
+            trial: AttemptScratch::default(),
+            kernel: KernelScratch::default(),
             t,
         }
     }
 
-    /// A fresh stamp for `vert_stamp` / `face_stamp` marks.
+    /// A fresh stamp for the `shared.vert_stamp` / `shared.face_stamp` marks.
     pub fn next_epoch(&mut self) -> u32 {
-        self.epoch = self.epoch.wrapping_add(1);
-        if self.epoch == 0 {
-            self.vert_stamp.iter_mut().for_each(|s| *s = 0);
-            self.face_stamp.iter_mut().for_each(|s| *s = 0);
-            self.epoch = 1;
+        self.shared.epoch = self.shared.epoch.wrapping_add(1);
+        if self.shared.epoch == 0 {
+            self.shared.vert_stamp.iter_mut().for_each(|s| *s = 0);
+            self.shared.face_stamp.iter_mut().for_each(|s| *s = 0);
+            self.shared.epoch = 1;
         }
-        self.epoch
+        self.shared.epoch
     }
 
     /// The current UV triangle of face `f`.

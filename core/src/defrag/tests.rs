@@ -803,8 +803,8 @@ fn patch_verdict(n: usize, triangles: &[[u32; 3]]) -> bool {
     let m = two_halves(2, rigid(0.0, [8.0, 8.0], 8.0), rigid(0.0, [8.0, 48.0], 8.0));
     let mut t = prepare(&m);
     let mut e = state::Engine::new(&mut t, MergeOptions::default());
-    e.problem.uv = vec![[0.0, 0.0]; n];
-    e.problem.triangles = triangles.to_vec();
+    e.area.problem.uv = vec![[0.0, 0.0]; n];
+    e.area.problem.triangles = triangles.to_vec();
     e.patch_is_disk_like()
 }
 
@@ -856,13 +856,13 @@ fn a_fold_among_fixed_vertices_dooms_the_attempt_before_any_solve() {
     let mut t = prepare(&m);
     let mut e = state::Engine::new(&mut t, MergeOptions::default());
     e.face_area2[0] = 2.0;
-    e.problem_faces = vec![0];
-    e.problem.triangles = vec![[0, 1, 2]];
+    e.area.problem_faces = vec![0];
+    e.area.problem.triangles = vec![[0, 1, 2]];
     let clockwise = vec![[0.0, 0.0], [0.0, 1.0], [1.0, 0.0]];
     let counter_clockwise = vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
     let verdict = |e: &mut state::Engine, uv: &[[f64; 2]], fixed: [bool; 3]| {
-        e.problem.uv = uv.to_vec();
-        e.problem.fixed = fixed.to_vec();
+        e.area.problem.uv = uv.to_vec();
+        e.area.problem.fixed = fixed.to_vec();
         e.fold_fixed_for_good()
     };
     // Turned over with every corner held: nothing can turn it back.

@@ -208,10 +208,10 @@ impl Engine<'_> {
             {
                 continue;
             }
-            self.candidates.clear();
-            self.grid.query(tri_bbox(&tri), &mut self.candidates);
-            let clear = (0..self.candidates.len()).all(|j| {
-                let s = self.candidates[j] as usize;
+            self.shared.candidates.clear();
+            self.grid.query(tri_bbox(&tri), &mut self.shared.candidates);
+            let clear = (0..self.shared.candidates.len()).all(|j| {
+                let s = self.shared.candidates[j] as usize;
                 s == f || self.t.face_chart[s] != chart || !overlap(tri, self.tri(s))
             });
             if clear {
@@ -349,10 +349,10 @@ impl Engine<'_> {
         if signed_area2(o).abs() >= DEGENERATE_AREA2 && signed_area2(tri) < DEGENERATE_AREA2 {
             return None;
         }
-        self.candidates.clear();
-        self.grid.query(tri_bbox(&tri), &mut self.candidates);
-        for j in 0..self.candidates.len() {
-            let s = self.candidates[j] as usize;
+        self.shared.candidates.clear();
+        self.grid.query(tri_bbox(&tri), &mut self.shared.candidates);
+        for j in 0..self.shared.candidates.len() {
+            let s = self.shared.candidates[j] as usize;
             if s != f && self.t.face_chart[s] == chart && overlap(tri, self.tri(s)) {
                 return None;
             }

@@ -30,6 +30,12 @@ pub fn norm(x: f64, y: f64) -> f64 {
     if (1e-150..=1e150).contains(&n) { n } else { x.hypot(y) }
 }
 
+/// The distance between the points `p` and `q`.
+#[inline]
+pub fn dist(p: [f64; 2], q: [f64; 2]) -> f64 {
+    norm(p[0] - q[0], p[1] - q[1])
+}
+
 #[cfg(test)]
 mod norm_tests {
     use super::norm;

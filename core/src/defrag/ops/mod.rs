@@ -1,65 +1,22 @@
-//! The dynamic operation table of the greedy loop and the geometry of an operation in the current
-//! layout: which chart stays and which moves, the vertex pairs to fuse, the rigid alignment, the
-//! seam lengths on each side, and the features a `MergeScorer` ranks (paper §4.3, digest §4.2).
+//! The geometry of an operation in the current layout: which chart stays and which moves, the
+//! vertex pairs to fuse, the rigid alignment, the seam lengths on each side, and the features a
+//! `MergeScorer` ranks (paper §4.3, digest §4.2). The operation table itself is in [`table`].
 
-use super::RejectReason;
+pub(super) mod scratch;
+pub(super) mod table;
+
+pub(crate) use table::{EngineOp, OpState};
+
 use super::state::Engine;
-use crate::geometry::{Rigid2, rigid_fit};
-use crate::plugin::{OpFeatures, Veto};
+use crate::geometry::{Rigid2, dist, rigid_fit};
+use crate::plugin::OpFeatures;
 use crate::topology::charts::pair_corners;
-use crate::topology::{ChartId, LinkId, OpKind};
+use crate::topology::{ChartId, OpKind};
+use table::CachedGeometry;
 
-/// Where an operation stands.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum OpState {
-    /// In the queue with its current appeal.
-    Queued,
-    /// Refused by the scorer; rescored when one of its charts changes.
-    Vetoed(Veto),
-    /// Attempted and rolled back; back in the queue only after one of its charts changes.
-    Failed(RejectReason),
-    /// Accepted.
-    Done,
-    /// Replaced by an operation that joins its links with those of another (shared neighbour).
-    Dead,
-}
-
-/// An operation of the greedy loop: the linked pairs it dissolves, all at once.
-#[derive(Clone, Debug)]
-pub(crate) struct EngineOp {
-    pub kind: OpKind,
-    pub links: Vec<LinkId>,
-    pub state: OpState,
-    /// How many times it was attempted and rolled back (the back-off exponent k).
-    pub failures: u32,
-    /// Bumped on every rescore; queue entries of older versions are stale.
-    pub version: u32,
-    /// The small-island look-ahead its last score saw (see `Engine::after_success`).
-    pub island: bool,
-    /// Its seam geometry as last computed for scoring (see `Engine::features`).
-    pub geom: Option<CachedGeometry>,
-}
-
-/// The part of an operation's geometry that rigid motions of either chart leave unchanged: the
-/// dissolved length on each side, the mean alignment error and the number of vertex pairs. It
-/// holds while the operation joins the same two charts and no vertex on its seams has changed
-/// other than rigidly since `at` (a value of `Engine::commits`).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct CachedGeometry {
-    charts: (ChartId, ChartId),
-    len: [f64; 2],
-    error: f64,
-    pairs: u32,
-    at: u32,
-}
-
-impl EngineOp {
-    pub fn is_live(&self) -> bool {
-        !matches!(self.state, OpState::Done | OpState::Dead)
-    }
-}
-
-/// The operation geometry in the current layout. The pairs are left in `Engine::pairs`.
+/// The operation geometry in the current layout. The pairs are left in [`OpScratch::pairs`].
+///
+/// [`OpScratch::pairs`]: scratch::OpScratch
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct OpGeometry {
     /// The chart that stays (more faces) and the chart that moves (equal for intra-chart).
@@ -74,11 +31,6 @@ pub(crate) struct OpGeometry {
     /// intra-chart operation, as the reference does).
     pub len_a: f64,
     pub len_b: f64,
-}
-
-#[inline]
-pub(crate) fn dist(p: [f64; 2], q: [f64; 2]) -> f64 {
-    crate::geometry::norm(p[0] - q[0], p[1] - q[1])
 }
 
 impl Engine<'_> {
@@ -105,11 +57,11 @@ impl Engine<'_> {
     }
 
     /// Computes the geometry of `op`, leaving its distinct vertex pairs `(stays, moves)` in
-    /// `self.pairs` (pairs whose two vertices are already one are left out).
+    /// `self.pairing.pairs` (pairs whose two vertices are already one are left out).
     pub fn op_geometry(&mut self, op: u32) -> OpGeometry {
         let (a, b) = self.stay_and_move(op);
         let inter = a != b;
-        self.pairs.clear();
+        self.pairing.pairs.clear();
         let (mut len_a, mut len_b) = (0.0, 0.0);
         let t = &*self.t;
         for &l in &self.ops[op as usize].links {
@@ -127,23 +79,26 @@ impl Engine<'_> {
                 len_a += la + lb;
             }
             if va0 != vb0 {
-                self.pairs.push([va0, vb0]);
+                self.pairing.pairs.push([va0, vb0]);
             }
             if va1 != vb1 {
-                self.pairs.push([va1, vb1]);
+                self.pairing.pairs.push([va1, vb1]);
             }
         }
         if !inter {
             len_b = len_a;
         }
-        self.pairs.sort_unstable();
-        self.pairs.dedup();
-        self.pts.clear();
-        self.pts.extend(
-            self.pairs.iter().map(|&[p, q]| (self.t.uv_pos[p.idx()], self.t.uv_pos[q.idx()])),
+        self.pairing.pairs.sort_unstable();
+        self.pairing.pairs.dedup();
+        self.pairing.pts.clear();
+        self.pairing.pts.extend(
+            self.pairing
+                .pairs
+                .iter()
+                .map(|&[p, q]| (self.t.uv_pos[p.idx()], self.t.uv_pos[q.idx()])),
         );
-        let fit = if inter { rigid_fit(&self.pts) } else { Rigid2::IDENTITY };
-        let error = fit.mean_residual(&self.pts);
+        let fit = if inter { rigid_fit(&self.pairing.pts) } else { Rigid2::IDENTITY };
+        let error = fit.mean_residual(&self.pairing.pts);
         OpGeometry { a, b, inter, fit, error, len_a, len_b }
     }
 
@@ -241,7 +196,7 @@ impl Engine<'_> {
                     charts: (c0, c1),
                     len,
                     error: g.error,
-                    pairs: self.pairs.len() as u32,
+                    pairs: self.pairing.pairs.len() as u32,
                     at: self.commits,
                 };
                 self.ops[op as usize].geom = Some(fresh);
@@ -282,31 +237,4 @@ impl Engine<'_> {
             })
         })
     }
-}
-
-/// The initial operation table: one engine operation per prepared operation, in id order.
-pub(crate) fn initial_ops(t: &crate::topology::Topology) -> (Vec<EngineOp>, Vec<Vec<u32>>) {
-    let mut ops = Vec::with_capacity(t.ops.len());
-    let mut chart_ops = vec![Vec::new(); t.charts.len()];
-    for (i, o) in t.ops.iter().enumerate() {
-        let links: Vec<LinkId> = t.links_of_op(crate::topology::OpId::from_usize(i)).to_vec();
-        if links.is_empty() {
-            continue;
-        }
-        let id = ops.len() as u32;
-        chart_ops[o.charts[0].idx()].push(id);
-        if o.charts[1] != o.charts[0] {
-            chart_ops[o.charts[1].idx()].push(id);
-        }
-        ops.push(EngineOp {
-            kind: o.kind,
-            links,
-            state: OpState::Vetoed(Veto::ZeroArea),
-            failures: 0,
-            version: 0,
-            island: false,
-            geom: None,
-        });
-    }
-    (ops, chart_ops)
 }

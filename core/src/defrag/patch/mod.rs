@@ -3,9 +3,12 @@
 //! triangles as targets, digest §5.5) and its topology check (each connected part must be a
 //! disk-like surface: genus 0 with at least one boundary loop, no edge with three triangles).
 
+pub(super) mod scratch;
+
 use super::DEGENERATE_AREA2;
-use super::ops::dist;
-use super::state::{Engine, NONE, OrdF64, orig_tri};
+use super::ord::OrdF64;
+use super::state::{Engine, NONE, orig_tri};
+use crate::geometry::dist;
 use crate::geometry::signed_area2;
 
 pub(crate) use crate::union_find::{find, union};
@@ -14,27 +17,27 @@ impl Engine<'_> {
     /// Whether vertex `v` is free in the current attempt.
     #[inline]
     pub fn is_free(&self, v: u32) -> bool {
-        !self.vert_budget[v as usize].is_nan()
+        !self.area.vert_budget[v as usize].is_nan()
     }
 
     /// Propagates the seeds' budgets over UV edges (a max-heap Dijkstra on the remaining budget)
     /// and collects the free vertices and the faces that touch one (both sorted).
     pub fn optimization_area(&mut self) {
-        self.free.clear();
-        self.heap.clear();
-        for i in 0..self.seeds.len() {
-            let (v, b) = self.seeds[i];
-            let cur = self.vert_budget[v as usize];
+        self.area.free.clear();
+        self.area.heap.clear();
+        for i in 0..self.area.seeds.len() {
+            let (v, b) = self.area.seeds[i];
+            let cur = self.area.vert_budget[v as usize];
             if cur.is_nan() {
-                self.free.push(v);
+                self.area.free.push(v);
             }
             if cur.is_nan() || b > cur {
-                self.vert_budget[v as usize] = b;
-                self.heap.push((OrdF64(b), v));
+                self.area.vert_budget[v as usize] = b;
+                self.area.heap.push((OrdF64(b), v));
             }
         }
-        while let Some((OrdF64(r), v)) = self.heap.pop() {
-            if r < self.vert_budget[v as usize] {
+        while let Some((OrdF64(r), v)) = self.area.heap.pop() {
+            if r < self.area.vert_budget[v as usize] {
                 continue;
             }
             let pv = self.t.uv_pos[v as usize];
@@ -47,45 +50,45 @@ impl Engine<'_> {
                         continue;
                     }
                     // A held chart keeps every vertex where it is: only the other side moves.
-                    if self.hold.is_some_and(|a| self.t.uv_chart[w as usize] == a) {
+                    if self.trial.hold.is_some_and(|a| self.t.uv_chart[w as usize] == a) {
                         continue;
                     }
                     let rest = r - dist(pv, self.t.uv_pos[w as usize]);
-                    let cur = self.vert_budget[w as usize];
+                    let cur = self.area.vert_budget[w as usize];
                     if rest >= 0.0 && (cur.is_nan() || rest > cur) {
                         if cur.is_nan() {
-                            self.free.push(w);
+                            self.area.free.push(w);
                         }
-                        self.vert_budget[w as usize] = rest;
-                        self.heap.push((OrdF64(rest), w));
+                        self.area.vert_budget[w as usize] = rest;
+                        self.area.heap.push((OrdF64(rest), w));
                     }
                 }
                 c = self.fan_next[c as usize];
             }
         }
-        if self.hold.is_some() {
+        if self.trial.hold.is_some() {
             // The fused seam stays where the held chart has it: its vertices only seed the area.
-            for i in 0..self.seeds.len() {
-                self.vert_budget[self.seeds[i].0 as usize] = f64::NAN;
+            for i in 0..self.area.seeds.len() {
+                self.area.vert_budget[self.area.seeds[i].0 as usize] = f64::NAN;
             }
-            let budget = &self.vert_budget;
-            self.free.retain(|&v| !budget[v as usize].is_nan());
+            let budget = &self.area.vert_budget;
+            self.area.free.retain(|&v| !budget[v as usize].is_nan());
         }
-        self.free.sort_unstable();
-        self.opt_faces.clear();
-        for i in 0..self.free.len() {
-            self.add_fan_to_area(self.free[i]);
+        self.area.free.sort_unstable();
+        self.area.opt_faces.clear();
+        for i in 0..self.area.free.len() {
+            self.add_fan_to_area(self.area.free[i]);
         }
-        if self.hold.is_some() {
+        if self.trial.hold.is_some() {
             // The faces on the seam changed shape when it was fused, even those with no free
             // vertex: the moving chart's always, the held chart's where a group held two of its
             // vertices (a slit closing at the seam's end), which meet at their mean. They are
             // judged and booked with the area too, or their moves would leave new overlaps.
-            for i in 0..self.seeds.len() {
-                self.add_fan_to_area(self.seeds[i].0);
+            for i in 0..self.area.seeds.len() {
+                self.add_fan_to_area(self.area.seeds[i].0);
             }
         }
-        self.opt_faces.sort_unstable();
+        self.area.opt_faces.sort_unstable();
     }
 
     /// Adds the faces around vertex `v` to the optimization area (each once).
@@ -93,26 +96,26 @@ impl Engine<'_> {
         let mut c = self.fan_head[v as usize];
         while c != NONE {
             let f = c / 3;
-            if !self.face_opt[f as usize] {
-                self.face_opt[f as usize] = true;
-                self.opt_faces.push(f);
+            if !self.area.face_opt[f as usize] {
+                self.area.face_opt[f as usize] = true;
+                self.area.opt_faces.push(f);
             }
             c = self.fan_next[c as usize];
         }
     }
 
-    /// Builds `self.problem` from the optimization area: local vertices in order of first use by
+    /// Builds `area.problem` from the optimization area: local vertices in order of first use by
     /// the sorted faces, fixed = not free; then checks the patch's topology and makes sure every
     /// connected part has a fixed vertex. `false` when the topology is not disk-like.
     pub fn build_problem(&mut self) -> bool {
-        let p = &mut self.problem;
+        let p = &mut self.area.problem;
         p.uv.clear();
         p.fixed.clear();
         p.triangles.clear();
         p.targets.clear();
-        self.local_verts.clear();
-        self.problem_faces.clear();
-        for &f in &self.opt_faces {
+        self.area.local_verts.clear();
+        self.area.problem_faces.clear();
+        for &f in &self.area.opt_faces {
             // A face with two corners at one 3-D position (frozen as degenerate, and carried
             // along with its chart) has two corners on one UV vertex: it stays a segment wherever
             // its vertices go, has no area to keep and no energy, and as a triangle of the patch
@@ -122,17 +125,17 @@ impl Engine<'_> {
             if c(0) == c(1) || c(1) == c(2) || c(0) == c(2) {
                 continue;
             }
-            self.problem_faces.push(f);
+            self.area.problem_faces.push(f);
             let mut tri = [0u32; 3];
             for (k, slot) in tri.iter_mut().enumerate() {
                 let v = self.t.corner_uv[3 * f as usize + k].0;
-                if self.vert_local[v as usize] == NONE {
-                    self.vert_local[v as usize] = self.local_verts.len() as u32;
-                    self.local_verts.push(v);
+                if self.area.vert_local[v as usize] == NONE {
+                    self.area.vert_local[v as usize] = self.area.local_verts.len() as u32;
+                    self.area.local_verts.push(v);
                     p.uv.push(self.t.uv_pos[v as usize]);
-                    p.fixed.push(self.vert_budget[v as usize].is_nan());
+                    p.fixed.push(self.area.vert_budget[v as usize].is_nan());
                 }
-                *slot = self.vert_local[v as usize];
+                *slot = self.area.vert_local[v as usize];
             }
             p.triangles.push(tri);
             let mut target = orig_tri(self.t, f as usize);
@@ -154,8 +157,8 @@ impl Engine<'_> {
             return false;
         }
         self.anchor_components();
-        self.base_fixed.clear();
-        self.base_fixed.extend_from_slice(&self.problem.fixed);
+        self.area.base_fixed.clear();
+        self.area.base_fixed.extend_from_slice(&self.area.problem.fixed);
         true
     }
 
@@ -167,11 +170,11 @@ impl Engine<'_> {
     /// triangles, and a boundary loop is a union of boundary edges meeting in one fan. An edge with
     /// more than two triangles fails.
     pub(super) fn patch_is_disk_like(&mut self) -> bool {
-        let n = self.problem.uv.len();
-        let nt = self.problem.triangles.len();
+        let n = self.area.problem.uv.len();
+        let nt = self.area.problem.triangles.len();
         // Undirected edges (lo, hi, 3·triangle + k), sorted so that equal edges are adjacent.
         let mut edges: Vec<(u32, u32, u32)> = Vec::with_capacity(3 * nt);
-        for (t, tri) in self.problem.triangles.iter().enumerate() {
+        for (t, tri) in self.area.problem.triangles.iter().enumerate() {
             for k in 0..3 {
                 let (a, b) = (tri[k], tri[(k + 1) % 3]);
                 if a == b {
@@ -189,7 +192,7 @@ impl Engine<'_> {
         // Fans: corners joined across interior edges. Boundary edges: one triangle.
         let mut fan: Vec<u32> = (0..3 * nt as u32).collect();
         let mut boundary: Vec<(u32, u32, u32)> = Vec::new();
-        let tris = &self.problem.triangles;
+        let tris = &self.area.problem.triangles;
         let mut i = 0;
         while i < edges.len() {
             let mut j = i + 1;
@@ -224,11 +227,11 @@ impl Engine<'_> {
         }
         // The vertex-connected parts, which `anchor_components` reads: each needs a fixed vertex
         // for the solve.
-        self.uf.clear();
-        self.uf.extend(0..n as u32);
+        self.area.uf.clear();
+        self.area.uf.extend(0..n as u32);
         for t in tris.iter() {
-            union(&mut self.uf, t[0], t[1]);
-            union(&mut self.uf, t[0], t[2]);
+            union(&mut self.area.uf, t[0], t[1]);
+            union(&mut self.area.uf, t[0], t[2]);
         }
         // The surface's parts are the triangles joined across interior edges: two parts that
         // touch at a vertex only are two surfaces (the vertex is split, one copy per fan), and
@@ -280,25 +283,25 @@ impl Engine<'_> {
 
     /// Gives every connected part without a fixed vertex two fixed ones: the endpoints of the edge
     /// whose current length best matches its target (the reference's `FixRandomEdgeWithinTolerance`,
-    /// without its unbounded search). `self.uf` holds the components from the topology check.
+    /// without its unbounded search). `area.uf` holds the components from the topology check.
     fn anchor_components(&mut self) {
-        let n = self.problem.uv.len();
+        let n = self.area.problem.uv.len();
         let mut anchored = vec![false; n];
         for v in 0..n as u32 {
-            if self.problem.fixed[v as usize] {
-                let r = find(&mut self.uf, v);
+            if self.area.problem.fixed[v as usize] {
+                let r = find(&mut self.area.uf, v);
                 anchored[r as usize] = true;
             }
         }
         for v in 0..n as u32 {
-            let r = find(&mut self.uf, v);
+            let r = find(&mut self.area.uf, v);
             if anchored[r as usize] {
                 continue;
             }
             anchored[r as usize] = true;
             let mut best = (f64::INFINITY, r, r);
-            for (t, target) in self.problem.triangles.iter().zip(&self.problem.targets) {
-                if find(&mut self.uf, t[0]) != r {
+            for (t, target) in self.area.problem.triangles.iter().zip(&self.area.problem.targets) {
+                if find(&mut self.area.uf, t[0]) != r {
                     continue;
                 }
                 for k in 0..3 {
@@ -307,34 +310,35 @@ impl Engine<'_> {
                     if lt.is_nan() || lt <= 0.0 {
                         continue;
                     }
-                    let lc = dist(self.problem.uv[a as usize], self.problem.uv[b as usize]);
+                    let lc =
+                        dist(self.area.problem.uv[a as usize], self.area.problem.uv[b as usize]);
                     let err = (lc - lt).abs() / lt;
                     if err < best.0 {
                         best = (err, a, b);
                     }
                 }
             }
-            self.problem.fixed[best.1 as usize] = true;
-            self.problem.fixed[best.2 as usize] = true;
+            self.area.problem.fixed[best.1 as usize] = true;
+            self.area.problem.fixed[best.2 as usize] = true;
         }
     }
 
     /// Clears the marks of the optimization area: budgets, patch faces, local and frozen
     /// vertices.
     pub(super) fn clear_patch_marks(&mut self) {
-        for &v in &self.free {
-            self.vert_budget[v as usize] = f64::NAN;
+        for &v in &self.area.free {
+            self.area.vert_budget[v as usize] = f64::NAN;
         }
-        for &f in &self.opt_faces {
-            self.face_opt[f as usize] = false;
+        for &f in &self.area.opt_faces {
+            self.area.face_opt[f as usize] = false;
         }
-        for &v in &self.local_verts {
-            self.vert_local[v as usize] = NONE;
+        for &v in &self.area.local_verts {
+            self.area.vert_local[v as usize] = NONE;
         }
-        for &v in &self.frozen_list {
-            self.vert_frozen[v as usize] = false;
+        for &v in &self.area.frozen_list {
+            self.area.vert_frozen[v as usize] = false;
         }
-        self.frozen_list.clear();
-        self.local_verts.clear();
+        self.area.frozen_list.clear();
+        self.area.local_verts.clear();
     }
 }

@@ -3,42 +3,20 @@
 //! problem, have `verdict.rs` check energies, folds and overlaps (with a bounded
 //! freeze-and-rerun on new overlaps), and commit, or roll back from the undo logs.
 
+pub(super) mod scratch;
+
 use std::time::Instant;
 
 use super::commit::CommitRecord;
 use super::grid::tri_bbox;
-use super::ops::{OpGeometry, dist};
+use super::ops::OpGeometry;
 use super::patch::{find, union};
 use super::state::{Engine, NONE};
 use super::verdict::Verdict;
 use super::{RejectReason, ms};
+use crate::geometry::dist;
 use crate::geometry::triangles_overlap_beyond_noise as overlap;
-use crate::plugin::{LocalProblem, LocalSolver, SolveError, SolveReport};
-
-/// A solve kept for later (see `Engine::first_solve`): the problem as the solver got it, the
-/// layout it returned and its report.
-#[derive(Default)]
-pub(crate) struct SolveMemo {
-    start: LocalProblem,
-    solved: Vec<[f64; 2]>,
-    report: SolveReport,
-}
-
-impl SolveMemo {
-    /// Whether `p` is bit for bit the problem this solve started from.
-    fn start_matches(&self, p: &LocalProblem) -> bool {
-        let bits = |a: &[[f64; 2]], b: &[[f64; 2]]| {
-            a.len() == b.len()
-                && a.iter().zip(b).all(|(x, y)| x.map(f64::to_bits) == y.map(f64::to_bits))
-        };
-        let s = &self.start;
-        s.fixed == p.fixed
-            && s.triangles == p.triangles
-            && bits(&s.uv, &p.uv)
-            && s.targets.len() == p.targets.len()
-            && s.targets.iter().zip(&p.targets).all(|(x, y)| bits(x, y))
-    }
-}
+use crate::plugin::{LocalSolver, SolveError, SolveReport};
 
 /// What an attempt does with a success.
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -101,22 +79,23 @@ impl Engine<'_> {
         let (g, result) = loop {
             let t0 = Instant::now();
             let g = self.op_geometry(op);
-            self.hold = if sides[0] { Some(g.a) } else { None };
+            self.trial.hold = if sides[0] { Some(g.a) } else { None };
             self.align_and_fuse(op, &g);
             self.report.timings.align_fuse_ms += ms(t0);
 
             let t1 = Instant::now();
             self.optimization_area();
             self.report.max_patch_faces =
-                self.report.max_patch_faces.max(self.opt_faces.len() as u64);
+                self.report.max_patch_faces.max(self.area.opt_faces.len() as u64);
             self.report.timings.area_ms += ms(t1);
 
             let result = self.check_and_solve(op, &g, solver);
-            if std::mem::take(&mut self.memo_filled) && result == Err(RejectReason::Deferred) {
-                self.solve_memo.insert(op, std::mem::take(&mut self.memo_scratch));
+            if std::mem::take(&mut self.trial.memo_filled) && result == Err(RejectReason::Deferred)
+            {
+                self.trial.solve_memo.insert(op, std::mem::take(&mut self.trial.memo_scratch));
             }
             if result.is_ok() || sides.len() == 1 {
-                if result.is_ok() && self.hold.is_some() {
+                if result.is_ok() && self.trial.hold.is_some() {
                     self.report.one_sided_merges += 1;
                 }
                 break (g, result);
@@ -153,21 +132,22 @@ impl Engine<'_> {
 
     /// Moves chart b by the fit, then fuses each group of paired vertices into its smallest
     /// vertex at the group's mean and links the dissolved sides as UV twins. Leaves the seeds
-    /// (representative, α × largest displacement) in `self.seeds` and b's vertices in `moved`.
+    /// (representative, α × largest displacement) in `area.seeds` and b's vertices in
+    /// `trial.moved`.
     fn align_and_fuse(&mut self, op: u32, g: &OpGeometry) {
-        self.moved.clear();
+        self.trial.moved.clear();
         if g.inter {
             let ep = self.next_epoch();
             for &f in &self.chart_faces[g.b.idx()] {
                 for k in 0..3 {
                     let v = self.t.corner_uv[3 * f as usize + k].0;
-                    if self.vert_stamp[v as usize] != ep {
-                        self.vert_stamp[v as usize] = ep;
-                        self.moved.push(v);
+                    if self.shared.vert_stamp[v as usize] != ep {
+                        self.shared.vert_stamp[v as usize] = ep;
+                        self.trial.moved.push(v);
                     }
                 }
             }
-            for &v in &self.moved {
+            for &v in &self.trial.moved {
                 let p = g.fit.apply(self.t.uv_pos[v as usize]);
                 self.log.pos.set(&mut self.t.uv_pos, v as usize, p);
             }
@@ -180,45 +160,45 @@ impl Engine<'_> {
         }
 
         // Groups: connected components of the pair graph, each fused into its smallest vertex.
-        self.local_verts.clear();
-        for &[p, q] in &self.pairs {
+        self.area.local_verts.clear();
+        for &[p, q] in &self.pairing.pairs {
             for v in [p.0, q.0] {
-                if self.vert_local[v as usize] == NONE {
-                    self.vert_local[v as usize] = self.local_verts.len() as u32;
-                    self.local_verts.push(v);
+                if self.area.vert_local[v as usize] == NONE {
+                    self.area.vert_local[v as usize] = self.area.local_verts.len() as u32;
+                    self.area.local_verts.push(v);
                 }
             }
         }
-        self.uf.clear();
-        self.uf.extend(0..self.local_verts.len() as u32);
-        for &[p, q] in &self.pairs {
-            let (lp, lq) = (self.vert_local[p.idx()], self.vert_local[q.idx()]);
-            union(&mut self.uf, lp, lq);
+        self.area.uf.clear();
+        self.area.uf.extend(0..self.area.local_verts.len() as u32);
+        for &[p, q] in &self.pairing.pairs {
+            let (lp, lq) = (self.area.vert_local[p.idx()], self.area.vert_local[q.idx()]);
+            union(&mut self.area.uf, lp, lq);
         }
-        self.groups.clear();
-        for (i, &v) in self.local_verts.iter().enumerate() {
-            self.groups.push((find(&mut self.uf, i as u32), v));
+        self.trial.groups.clear();
+        for (i, &v) in self.area.local_verts.iter().enumerate() {
+            self.trial.groups.push((find(&mut self.area.uf, i as u32), v));
         }
-        for &v in &self.local_verts {
-            self.vert_local[v as usize] = NONE;
+        for &v in &self.area.local_verts {
+            self.area.vert_local[v as usize] = NONE;
         }
-        self.local_verts.clear();
+        self.area.local_verts.clear();
         // Sorting by (group, vertex) puts each group together with its smallest vertex first.
-        self.groups.sort_unstable();
-        self.seeds.clear();
+        self.trial.groups.sort_unstable();
+        self.area.seeds.clear();
         let mut i = 0;
-        while i < self.groups.len() {
+        while i < self.trial.groups.len() {
             let mut j = i + 1;
-            while j < self.groups.len() && self.groups[j].0 == self.groups[i].0 {
+            while j < self.trial.groups.len() && self.trial.groups[j].0 == self.trial.groups[i].0 {
                 j += 1;
             }
-            let rep = self.groups[i].1;
+            let rep = self.trial.groups[i].1;
             // The group meets at its mean, or where the held chart has it (the mean of the
             // held chart's members: one, but for a cone point of its own).
             let (mut mean, mut n) = ([0.0, 0.0], 0.0);
             for held in [true, false] {
-                for &(_, v) in &self.groups[i..j] {
-                    if held && self.hold.is_none_or(|a| self.t.uv_chart[v as usize] != a) {
+                for &(_, v) in &self.trial.groups[i..j] {
+                    if held && self.trial.hold.is_none_or(|a| self.t.uv_chart[v as usize] != a) {
                         continue;
                     }
                     let p = self.t.uv_pos[v as usize];
@@ -231,16 +211,16 @@ impl Engine<'_> {
             }
             mean = [mean[0] / n, mean[1] / n];
             let mut disp: f64 = 0.0;
-            for &(_, v) in &self.groups[i..j] {
+            for &(_, v) in &self.trial.groups[i..j] {
                 disp = disp.max(dist(self.t.uv_pos[v as usize], mean));
             }
             self.log.pos.set(&mut self.t.uv_pos, rep as usize, mean);
             for k in i + 1..j {
-                let m = self.groups[k].1;
+                let m = self.trial.groups[k].1;
                 self.fuse_vertex(m, rep);
             }
             let budget = self.opts.alpha * disp;
-            self.seeds.push((rep, if budget.is_finite() { budget } else { 0.0 }));
+            self.area.seeds.push((rep, if budget.is_finite() { budget } else { 0.0 }));
             i = j;
         }
         for l in 0..self.ops[op as usize].links.len() {
@@ -297,7 +277,7 @@ impl Engine<'_> {
                 return Err(RejectReason::EarlyOverlap);
             }
         }
-        if self.opt_faces.is_empty() {
+        if self.area.opt_faces.is_empty() {
             return Ok((0.0, 0.0, 0.0));
         }
         let t = Instant::now();
@@ -310,8 +290,8 @@ impl Engine<'_> {
         if self.fold_fixed_for_good() {
             return Err(RejectReason::Fold);
         }
-        self.start_uv.clear();
-        self.start_uv.extend_from_slice(&self.problem.uv);
+        self.trial.start_uv.clear();
+        self.trial.start_uv.extend_from_slice(&self.area.problem.uv);
         let mut rerun = 0;
         let mut grown = 0;
         let mut first = true;
@@ -324,10 +304,10 @@ impl Engine<'_> {
                     first = false;
                     self.first_solve(op, solver)
                 }
-                None => solver.solve(&mut self.problem),
+                None => solver.solve(&mut self.area.problem),
                 // A rescue that cannot run or fails leaves the first refusal standing.
                 Some(refusal) => {
-                    let again = solver.solve_again(&mut self.problem);
+                    let again = solver.solve_again(&mut self.area.problem);
                     self.report.rescues += u64::from(again.is_some());
                     match again {
                         Some(Ok(rep)) => Ok(rep),
@@ -343,12 +323,12 @@ impl Engine<'_> {
                 return Err(RejectReason::Numerical);
             };
             self.report.solver_iterations += u64::from(rep.iterations);
-            if self.problem.uv.iter().flatten().any(|x| !x.is_finite()) {
+            if self.area.problem.uv.iter().flatten().any(|x| !x.is_finite()) {
                 return Err(RejectReason::Numerical);
             }
-            for (i, &v) in self.local_verts.iter().enumerate() {
-                if !self.problem.fixed[i] {
-                    self.log.pos.set(&mut self.t.uv_pos, v as usize, self.problem.uv[i]);
+            for (i, &v) in self.area.local_verts.iter().enumerate() {
+                if !self.area.problem.fixed[i] {
+                    self.log.pos.set(&mut self.t.uv_pos, v as usize, self.area.problem.uv[i]);
                 }
             }
             let t = Instant::now();
@@ -416,26 +396,26 @@ impl Engine<'_> {
         op: u32,
         solver: &mut dyn LocalSolver,
     ) -> Result<SolveReport, SolveError> {
-        if self.hold.is_some() {
-            return solver.solve(&mut self.problem);
+        if self.trial.hold.is_some() {
+            return solver.solve(&mut self.area.problem);
         }
-        if let Some(m) = self.solve_memo.remove(&op)
-            && m.start_matches(&self.problem)
+        if let Some(m) = self.trial.solve_memo.remove(&op)
+            && m.start_matches(&self.area.problem)
         {
-            self.problem.uv.clone_from(&m.solved);
+            self.area.problem.uv.clone_from(&m.solved);
             // Not counted in the report: which engine holds the memo depends on the timing of
             // the judgements ahead, and the report is the same for every thread count.
             return Ok(m.report);
         }
         // The scratch keeps its buffers from one attempt to the next; only a deferral takes them.
         if self.deferring {
-            self.memo_scratch.start.clone_from(&self.problem);
+            self.trial.memo_scratch.start.clone_from(&self.area.problem);
         }
-        let solved = solver.solve(&mut self.problem);
+        let solved = solver.solve(&mut self.area.problem);
         if let (true, Ok(report)) = (self.deferring, &solved) {
-            self.memo_scratch.solved.clone_from(&self.problem.uv);
-            self.memo_scratch.report = *report;
-            self.memo_filled = true;
+            self.trial.memo_scratch.solved.clone_from(&self.area.problem.uv);
+            self.trial.memo_scratch.report = *report;
+            self.trial.memo_filled = true;
         }
         solved
     }
@@ -457,10 +437,11 @@ impl Engine<'_> {
     /// Puts the problem back to the fused starting layout the solver began from, with the
     /// patch's own fixed vertices and, if `frozen`, the ones frozen since held too.
     fn restart_from_fused(&mut self, frozen: bool) {
-        for (i, &v) in self.local_verts.iter().enumerate() {
-            self.problem.uv[i] = self.start_uv[i];
-            self.problem.fixed[i] = self.base_fixed[i] || (frozen && self.vert_frozen[v as usize]);
-            self.log.pos.set(&mut self.t.uv_pos, v as usize, self.start_uv[i]);
+        for (i, &v) in self.area.local_verts.iter().enumerate() {
+            self.area.problem.uv[i] = self.trial.start_uv[i];
+            self.area.problem.fixed[i] =
+                self.area.base_fixed[i] || (frozen && self.area.vert_frozen[v as usize]);
+            self.log.pos.set(&mut self.t.uv_pos, v as usize, self.trial.start_uv[i]);
         }
     }
 
@@ -473,7 +454,7 @@ impl Engine<'_> {
             return false;
         }
         let mut bbox = self.t.charts[g.a.idx()].bbox;
-        for &v in self.moved.iter().chain(self.seeds.iter().map(|(v, _)| v)) {
+        for &v in self.trial.moved.iter().chain(self.area.seeds.iter().map(|(v, _)| v)) {
             let q = self.t.uv_pos[v as usize];
             bbox = [bbox[0].min(q[0]), bbox[1].min(q[1]), bbox[2].max(q[0]), bbox[3].max(q[1])];
         }
@@ -486,15 +467,15 @@ impl Engine<'_> {
         let b = g.b.idx();
         for i in 0..self.chart_faces[b].len() {
             let f = self.chart_faces[b][i] as usize;
-            if self.face_opt[f] {
+            if self.area.face_opt[f] {
                 continue;
             }
             let tri = self.tri(f);
-            self.candidates.clear();
-            self.grid.query(tri_bbox(&tri), &mut self.candidates);
-            for j in 0..self.candidates.len() {
-                let s = self.candidates[j] as usize;
-                if self.t.face_chart[s] != g.a || self.face_opt[s] {
+            self.shared.candidates.clear();
+            self.grid.query(tri_bbox(&tri), &mut self.shared.candidates);
+            for j in 0..self.shared.candidates.len() {
+                let s = self.shared.candidates[j] as usize;
+                if self.t.face_chart[s] != g.a || self.area.face_opt[s] {
                     continue;
                 }
                 if overlap(tri, self.tri(s)) {

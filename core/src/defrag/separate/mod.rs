@@ -10,12 +10,16 @@
 //! the seam costs almost nothing in area-weighted distortion. The verdict is then taken again in
 //! full, so a separated layout passes only if every check of the paper passes.
 
+pub(super) mod scratch;
+
 use super::DEGENERATE_AREA2;
 use super::grid::tri_bbox;
 use super::kernel::AreaBound;
-use super::ops::{OpGeometry, dist};
+use super::ops::OpGeometry;
 use super::state::{Engine, NONE, orig_tri};
+use crate::geometry::dist;
 use crate::geometry::{Tri2, isometric_energy, signed_area2, triangles_overlap_beyond_noise};
+use scratch::Other;
 
 /// Sweeps over the offending pairs.
 const PASSES: usize = 4;
@@ -51,51 +55,43 @@ pub(crate) fn area_bound(before: f64, now: f64) -> AreaBound {
     }
 }
 
-/// The second face of a pair that the separation watches: a face around the moving vertex (its
-/// index in `sep_faces`) or one that stays put (its index in `sep_static`).
-#[derive(Clone, Copy, Debug)]
-pub(crate) enum Other {
-    Fan(u32),
-    Static(u32),
-}
-
 impl Engine<'_> {
-    /// Tries to separate the pairs in `self.offenders` by moving free vertices; `true` when a
+    /// Tries to separate the pairs in `self.sep.offenders` by moving free vertices; `true` when a
     /// sweep left none of them overlapping (the caller judges the layout again in full).
     pub(super) fn separate_offenders(&mut self, g: &OpGeometry) -> bool {
-        if self.offenders.len() > 2 * MAX_PAIRS {
+        if self.sep.offenders.len() > 2 * MAX_PAIRS {
             return false;
         }
         for _ in 0..PASSES {
-            self.sep_verts.clear();
-            for i in 0..self.offenders.len() {
-                let f = self.offenders[i] as usize;
+            self.sep.verts.clear();
+            for i in 0..self.sep.offenders.len() {
+                let f = self.sep.offenders[i] as usize;
                 for k in 0..3 {
                     let v = self.t.corner_uv[3 * f + k].0;
                     if self.is_free(v) {
-                        self.sep_verts.push(v);
+                        self.sep.verts.push(v);
                     }
                 }
             }
-            self.sep_verts.sort_unstable();
-            self.sep_verts.dedup();
+            self.sep.verts.sort_unstable();
+            self.sep.verts.dedup();
             let mut moved = false;
-            for i in 0..self.sep_verts.len() {
-                let v = self.sep_verts[i];
+            for i in 0..self.sep.verts.len() {
+                let v = self.sep.verts[i];
                 moved |= self.separate_vertex(v, g);
             }
             // Keep only the pairs that still overlap.
             let mut w = 0;
-            for i in (0..self.offenders.len()).step_by(2) {
-                let (f, s) = (self.offenders[i] as usize, self.offenders[i + 1] as usize);
+            for i in (0..self.sep.offenders.len()).step_by(2) {
+                let (f, s) = (self.sep.offenders[i] as usize, self.sep.offenders[i + 1] as usize);
                 if triangles_overlap_beyond_noise(self.tri(f), self.tri(s)) {
-                    self.offenders[w] = f as u32;
-                    self.offenders[w + 1] = s as u32;
+                    self.sep.offenders[w] = f as u32;
+                    self.sep.offenders[w + 1] = s as u32;
                     w += 2;
                 }
             }
-            self.offenders.truncate(w);
-            if self.offenders.is_empty() {
+            self.sep.offenders.truncate(w);
+            if self.sep.offenders.is_empty() {
                 return true;
             }
             if !moved {
@@ -110,15 +106,15 @@ impl Engine<'_> {
     fn separate_vertex(&mut self, v: u32, g: &OpGeometry) -> bool {
         // The faces around v, their mean edge length, and every face of the two charts that any
         // of them may reach within the longest step.
-        self.sep_faces.clear();
+        self.sep.faces.clear();
         let mut c = self.fan_head[v as usize];
         while c != NONE {
-            self.sep_faces.push(c / 3);
+            self.sep.faces.push(c / 3);
             c = self.fan_next[c as usize];
         }
         let (mut len, mut bbox) =
             (0.0, [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY]);
-        for &f in &self.sep_faces {
+        for &f in &self.sep.faces {
             let tri = self.tri(f as usize);
             for k in 0..3 {
                 len += dist(tri[k], tri[(k + 1) % 3]);
@@ -126,7 +122,7 @@ impl Engine<'_> {
             let b = tri_bbox(&tri);
             bbox = [bbox[0].min(b[0]), bbox[1].min(b[1]), bbox[2].max(b[2]), bbox[3].max(b[3])];
         }
-        let scale = len / (3 * self.sep_faces.len().max(1)) as f64;
+        let scale = len / (3 * self.sep.faces.len().max(1)) as f64;
         if scale.is_nan() || scale <= 0.0 {
             return false;
         }
@@ -137,9 +133,9 @@ impl Engine<'_> {
         // overlap that fan face, and the pair need not be tested at any of the trial positions.
         let margin = reach * (1.0 + 1e-9) + 1e-12 * (p0[0].abs() + p0[1].abs());
         let disc = [p0[0] - margin, p0[1] - margin, p0[0] + margin, p0[1] + margin];
-        self.sep_swept.clear();
-        for i in 0..self.sep_faces.len() {
-            let f = self.sep_faces[i] as usize;
+        self.sep.swept.clear();
+        for i in 0..self.sep.faces.len() {
+            let f = self.sep.faces[i] as usize;
             let mut b = disc;
             for k in 0..3 {
                 if self.t.corner_uv[3 * f + k].0 != v {
@@ -147,38 +143,38 @@ impl Engine<'_> {
                     b = [b[0].min(q[0]), b[1].min(q[1]), b[2].max(q[0]), b[3].max(q[1])];
                 }
             }
-            self.sep_swept.push(b);
+            self.sep.swept.push(b);
         }
-        self.candidates.clear();
+        self.shared.candidates.clear();
         self.grid.query(
             [bbox[0] - reach, bbox[1] - reach, bbox[2] + reach, bbox[3] + reach],
-            &mut self.candidates,
+            &mut self.shared.candidates,
         );
         // The pairs to watch: overlaps two faces of one chart had before the attempt stay
         // tolerated wherever the vertex goes, so they are left out once here. Each pair holds
-        // the index of its moving face in `sep_faces`, and for the other face either its index
+        // the index of its moving face in `sep.faces`, and for the other face either its index
         // there too (when it moves with the vertex) or its triangle, which stays put.
-        self.sep_tests.clear();
-        self.sep_static.clear();
-        for i in 0..self.sep_faces.len() {
-            let f = self.sep_faces[i] as usize;
+        self.sep.tests.clear();
+        self.sep.static_tris.clear();
+        for i in 0..self.sep.faces.len() {
+            let f = self.sep.faces[i] as usize;
             let (chart, before) = (self.t.face_chart[f], self.tri_before(f));
-            for j in 0..self.candidates.len() {
-                let s = self.candidates[j] as usize;
+            for j in 0..self.shared.candidates.len() {
+                let s = self.shared.candidates[j] as usize;
                 let cs = self.t.face_chart[s];
                 if s == f || (cs != g.a && cs != g.b) {
                     continue;
                 }
-                let other = match self.sep_faces.iter().position(|&x| x as usize == s) {
+                let other = match self.sep.faces.iter().position(|&x| x as usize == s) {
                     Some(k) => (Other::Fan(k as u32), None),
                     None => {
-                        let (tri, w) = (self.tri(s), self.sep_swept[i]);
+                        let (tri, w) = (self.tri(s), self.sep.swept[i]);
                         let b = tri_bbox(&tri);
                         // As `triangles_overlap` reads boxes: touching ones do not overlap.
                         if b[2] <= w[0] || w[2] <= b[0] || b[3] <= w[1] || w[3] <= b[1] {
                             continue;
                         }
-                        (Other::Static(self.sep_static.len() as u32), Some(tri))
+                        (Other::Static(self.sep.static_tris.len() as u32), Some(tri))
                     }
                 };
                 let tolerated =
@@ -188,18 +184,18 @@ impl Engine<'_> {
                 }
                 let (other, tri) = other;
                 if let Some(tri) = tri {
-                    self.sep_static.push(tri);
+                    self.sep.static_tris.push(tri);
                 }
-                self.sep_tests.push((i as u32, other));
+                self.sep.tests.push((i as u32, other));
             }
         }
         self.fan_tris_now();
         // The overlapping pairs go first: a move must undo some of them before the others are
         // worth testing, and it must undo more than it creates.
         let mut count0 = 0;
-        for i in 0..self.sep_tests.len() {
-            if self.test_overlaps(self.sep_tests[i]) {
-                self.sep_tests.swap(i, count0);
+        for i in 0..self.sep.tests.len() {
+            if self.test_overlaps(self.sep.tests[i]) {
+                self.sep.tests.swap(i, count0);
                 count0 += 1;
             }
         }
@@ -234,8 +230,8 @@ impl Engine<'_> {
             self.t.uv_pos[v as usize] = p0;
             if let Some((p, _)) = best {
                 self.log.pos.set(&mut self.t.uv_pos, v as usize, p);
-                for i in 0..self.sep_faces.len() {
-                    let f = self.sep_faces[i];
+                for i in 0..self.sep.faces.len() {
+                    let f = self.sep.faces[i];
                     let tri = self.tri(f as usize);
                     self.grid.insert(f, &tri);
                 }
@@ -245,32 +241,32 @@ impl Engine<'_> {
         false
     }
 
-    /// Takes the current triangles of the faces in `sep_faces` into `sep_fan_tris`.
+    /// Takes the current triangles of the faces in `sep.faces` into `sep.fan_tris`.
     fn fan_tris_now(&mut self) {
-        self.sep_fan_tris.clear();
-        for i in 0..self.sep_faces.len() {
-            let tri = self.tri(self.sep_faces[i] as usize);
-            self.sep_fan_tris.push(tri);
+        self.sep.fan_tris.clear();
+        for i in 0..self.sep.faces.len() {
+            let tri = self.tri(self.sep.faces[i] as usize);
+            self.sep.fan_tris.push(tri);
         }
     }
 
-    /// Whether the two faces of a pair of `sep_tests` overlap, at the triangles of
-    /// `sep_fan_tris` and `sep_static`.
+    /// Whether the two faces of a pair of `sep.tests` overlap, at the triangles of
+    /// `sep.fan_tris` and `sep.static_tris`.
     #[inline]
     fn test_overlaps(&self, (i, other): (u32, Other)) -> bool {
-        let t = self.sep_fan_tris[i as usize];
+        let t = self.sep.fan_tris[i as usize];
         let u = match other {
-            Other::Fan(k) => self.sep_fan_tris[k as usize],
-            Other::Static(k) => self.sep_static[k as usize],
+            Other::Fan(k) => self.sep.fan_tris[k as usize],
+            Other::Static(k) => self.sep.static_tris[k as usize],
         };
         triangles_overlap_beyond_noise(t, u)
     }
 
-    /// Whether every face in `sep_faces` keeps a doubled area its fold check accepts: the chart's
+    /// Whether every face in `sep.faces` keeps a doubled area its fold check accepts: the chart's
     /// orientation for a face that had it, never the wrong way for a degenerate one, and never
     /// degenerate for one folded before the attempt (on either side).
     fn faces_keep_orientation(&self) -> bool {
-        self.sep_faces.iter().zip(&self.sep_fan_tris).all(|(&f, &tri)| {
+        self.sep.faces.iter().zip(&self.sep.fan_tris).all(|(&f, &tri)| {
             let (before, now) = (self.face_area2[f as usize], signed_area2(tri));
             if before <= -DEGENERATE_AREA2 {
                 now.abs() >= 2.0 * DEGENERATE_AREA2
@@ -280,15 +276,15 @@ impl Engine<'_> {
         })
     }
 
-    /// Whether fewer of the pairs in `sep_tests` overlap than the first `count0`, which all did
+    /// Whether fewer of the pairs in `sep.tests` overlap than the first `count0`, which all did
     /// before the move.
     fn fewer_overlaps(&self, count0: usize) -> bool {
-        let undone = self.sep_tests[..count0].iter().filter(|&&p| !self.test_overlaps(p)).count();
+        let undone = self.sep.tests[..count0].iter().filter(|&&p| !self.test_overlaps(p)).count();
         if undone == 0 {
             return false;
         }
         let mut created = 0;
-        for &p in &self.sep_tests[count0..] {
+        for &p in &self.sep.tests[count0..] {
             if self.test_overlaps(p) {
                 created += 1;
                 if created >= undone {
@@ -299,10 +295,10 @@ impl Engine<'_> {
         true
     }
 
-    /// The area-weighted mean distortion of the faces in `sep_faces` (at `sep_fan_tris`).
+    /// The area-weighted mean distortion of the faces in `sep.faces` (at `sep.fan_tris`).
     fn energy_around(&self) -> f64 {
         let (mut num, mut den) = (0.0, 0.0);
-        for (&f, &tri) in self.sep_faces.iter().zip(&self.sep_fan_tris) {
+        for (&f, &tri) in self.sep.faces.iter().zip(&self.sep.fan_tris) {
             let f = f as usize;
             let w = self.face_weight[f];
             num += w * isometric_energy(orig_tri(self.t, f), tri);

@@ -3,6 +3,8 @@
 //! offenders, freeze them and rerun, or grow the optimization area). Kept apart from
 //! `attempt.rs`, which drives the attempt from alignment to commit or rollback.
 
+pub(super) mod scratch;
+
 use std::time::Instant;
 
 use super::grid::tri_bbox;
@@ -37,7 +39,7 @@ pub(super) enum Verdict {
         in_num: f64,
     },
     Reject(RejectReason),
-    /// New overlaps: `offenders` holds the faces involved.
+    /// New overlaps: `sep.offenders` holds the faces involved.
     Overlap,
 }
 
@@ -47,25 +49,25 @@ impl Engine<'_> {
     /// is the solver's rescue, which is held to the energy ration (see [`Self::over_ration`]).
     pub(super) fn verdict(&mut self, g: &OpGeometry, rescued: bool) -> Verdict {
         let (mut out_num, mut out_den, mut in_num) = (0.0, 0.0, 0.0);
-        for &f in &self.opt_faces {
+        for &f in &self.area.opt_faces {
             let f = f as usize;
             let w = self.face_weight[f];
             out_num += w * isometric_energy(orig_tri(self.t, f), self.tri(f));
             out_den += w;
             in_num += self.face_energy[f];
         }
-        if self.record_checks {
-            self.global_checks.push((out_num, in_num));
+        if self.checks.record_checks {
+            self.checks.global_checks.push((out_num, in_num));
         }
         if self.over_budget(self.energy_num, out_num, in_num) {
             return Verdict::Reject(RejectReason::GlobalDistortion);
         }
-        if (self.hold.is_some() || rescued || self.deferring)
+        if (self.trial.hold.is_some() || rescued || self.deferring)
             && self.over_ration(g, out_num - in_num)
         {
             // Not booked: a held merge is tried again on both sides at once; a rescue leaves
             // its first refusal standing; any other merge waits for the second pass.
-            let deferred = self.deferring && self.hold.is_none() && !rescued;
+            let deferred = self.deferring && self.trial.hold.is_none() && !rescued;
             return Verdict::Reject(if deferred {
                 RejectReason::Deferred
             } else {
@@ -76,7 +78,7 @@ impl Engine<'_> {
         if local.is_nan() || local > self.opts.local_distortion {
             return Verdict::Reject(RejectReason::LocalDistortion);
         }
-        for &f in &self.opt_faces {
+        for &f in &self.area.opt_faces {
             let before = self.face_area2[f as usize];
             let after = signed_area2(self.tri(f as usize));
             if folds(before, after) {
@@ -84,32 +86,32 @@ impl Engine<'_> {
             }
         }
         // Optimized faces enter the grid at their new place before the overlap queries.
-        for i in 0..self.opt_faces.len() {
-            let f = self.opt_faces[i];
+        for i in 0..self.area.opt_faces.len() {
+            let f = self.area.opt_faces[i];
             let tri = self.tri(f as usize);
             self.grid.insert(f, &tri);
         }
-        self.offenders.clear();
-        for i in 0..self.opt_faces.len() {
-            let f = self.opt_faces[i] as usize;
+        self.sep.offenders.clear();
+        for i in 0..self.area.opt_faces.len() {
+            let f = self.area.opt_faces[i] as usize;
             let tri = self.tri(f);
-            self.candidates.clear();
-            self.grid.query(tri_bbox(&tri), &mut self.candidates);
-            for j in 0..self.candidates.len() {
-                let s = self.candidates[j] as usize;
+            self.shared.candidates.clear();
+            self.grid.query(tri_bbox(&tri), &mut self.shared.candidates);
+            for j in 0..self.shared.candidates.len() {
+                let s = self.shared.candidates[j] as usize;
                 let cs = self.t.face_chart[s];
-                if s == f || (cs != g.a && cs != g.b) || (self.face_opt[s] && s < f) {
+                if s == f || (cs != g.a && cs != g.b) || (self.area.face_opt[s] && s < f) {
                     continue;
                 }
                 // Overlaps already present in the input chart are tolerated, never new ones.
                 if !self.pair_overlaps_anew(f, tri, s) {
                     continue;
                 }
-                self.offenders.push(f as u32);
-                self.offenders.push(s as u32);
+                self.sep.offenders.push(f as u32);
+                self.sep.offenders.push(s as u32);
             }
         }
-        if self.offenders.is_empty() {
+        if self.sep.offenders.is_empty() {
             Verdict::Pass { out_num, out_den, in_num }
         } else {
             Verdict::Overlap
@@ -123,8 +125,8 @@ impl Engine<'_> {
     /// one-sided merges, whose fused seam is held where the staying chart has it, followed by the
     /// merge on both sides; stopping them early saves their solving and checking.
     pub(super) fn fold_fixed_for_good(&self) -> bool {
-        let p = &self.problem;
-        p.triangles.iter().zip(&self.problem_faces).any(|(t, &f)| {
+        let p = &self.area.problem;
+        p.triangles.iter().zip(&self.area.problem_faces).any(|(t, &f)| {
             t.iter().all(|&v| p.fixed[v as usize])
                 && folds(self.face_area2[f as usize], signed_area2(t.map(|v| p.uv[v as usize])))
         })
@@ -166,8 +168,8 @@ impl Engine<'_> {
         g: &OpGeometry,
         rescued: bool,
     ) -> Option<(f64, f64, f64)> {
-        self.sep_pairs.clear();
-        self.sep_pairs.extend_from_slice(&self.offenders);
+        self.checks.sep_pairs.clear();
+        self.checks.sep_pairs.extend_from_slice(&self.sep.offenders);
         let t = Instant::now();
         let separated = self.separate_offenders(g);
         self.report.timings.separate_ms += ms(t);
@@ -181,7 +183,7 @@ impl Engine<'_> {
             Verdict::Pass { out_num, out_den, in_num } => Some((out_num, out_den, in_num)),
             Verdict::Overlap => None,
             Verdict::Reject(_) => {
-                std::mem::swap(&mut self.offenders, &mut self.sep_pairs);
+                std::mem::swap(&mut self.sep.offenders, &mut self.checks.sep_pairs);
                 None
             }
         }
@@ -191,9 +193,9 @@ impl Engine<'_> {
     fn tri_start(&self, f: usize) -> Tri2 {
         let at = |k: usize| {
             let v = self.t.corner_uv[3 * f + k].0 as usize;
-            match self.vert_local[v] {
+            match self.area.vert_local[v] {
                 NONE => self.t.uv_pos[v],
-                l => self.start_uv[l as usize],
+                l => self.trial.start_uv[l as usize],
             }
         };
         [at(0), at(1), at(2)]
@@ -208,8 +210,8 @@ impl Engine<'_> {
     /// distortion than the solver's energy asks for.)
     pub(super) fn freeze_offenders(&mut self) -> bool {
         let mut grew = false;
-        for i in (0..self.offenders.len()).step_by(2) {
-            let (f, s) = (self.offenders[i] as usize, self.offenders[i + 1] as usize);
+        for i in (0..self.sep.offenders.len()).step_by(2) {
+            let (f, s) = (self.sep.offenders[i] as usize, self.sep.offenders[i + 1] as usize);
             if overlap(self.tri_start(f), self.tri_start(s)) {
                 continue;
             }
@@ -229,12 +231,12 @@ impl Engine<'_> {
     /// more room often spreads the distortion enough to clear them. One growth is worth its
     /// time; a second one gains little more and costs much more.
     pub(super) fn grow_area(&mut self, g: &OpGeometry) -> bool {
-        for (i, &v) in self.local_verts.iter().enumerate() {
-            self.log.pos.set(&mut self.t.uv_pos, v as usize, self.start_uv[i]);
+        for (i, &v) in self.area.local_verts.iter().enumerate() {
+            self.log.pos.set(&mut self.t.uv_pos, v as usize, self.trial.start_uv[i]);
         }
         self.clear_patch_marks();
-        let step = (g.len_a + g.len_b) / (2.0 * self.pairs.len().max(1) as f64);
-        for s in &mut self.seeds {
+        let step = (g.len_a + g.len_b) / (2.0 * self.pairing.pairs.len().max(1) as f64);
+        for s in &mut self.area.seeds {
             s.1 = 2.0 * s.1 + if step.is_finite() { step } else { 0.0 };
         }
         self.optimization_area();
@@ -242,8 +244,8 @@ impl Engine<'_> {
             return false;
         }
         self.unfold_start_layout();
-        self.start_uv.clear();
-        self.start_uv.extend_from_slice(&self.problem.uv);
+        self.trial.start_uv.clear();
+        self.trial.start_uv.extend_from_slice(&self.area.problem.uv);
         true
     }
 
@@ -253,14 +255,19 @@ impl Engine<'_> {
         if !self.opts.solve_repair {
             return;
         }
-        let p = &mut self.problem;
-        self.area_bounds.clear();
-        for (&f, tri) in self.problem_faces.iter().zip(&p.triangles) {
+        let p = &mut self.area.problem;
+        self.checks.area_bounds.clear();
+        for (&f, tri) in self.area.problem_faces.iter().zip(&p.triangles) {
             let now = signed_area2(tri.map(|v| p.uv[v as usize]));
-            self.area_bounds.push(area_bound(self.face_area2[f as usize], now));
+            self.checks.area_bounds.push(area_bound(self.face_area2[f as usize], now));
         }
-        let unfolded =
-            unfold_start(&mut p.uv, &p.fixed, &p.triangles, &self.area_bounds, &mut self.kernel);
+        let unfolded = unfold_start(
+            &mut p.uv,
+            &p.fixed,
+            &p.triangles,
+            &self.checks.area_bounds,
+            &mut self.kernel,
+        );
         if let Some(done) = unfolded {
             self.report.start_folds += 1;
             self.report.start_folds_undone += u64::from(done);
@@ -271,9 +278,9 @@ impl Engine<'_> {
     fn freeze_face(&mut self, f: usize, grew: &mut bool) {
         for k in 0..3 {
             let v = self.t.corner_uv[3 * f + k].0;
-            if self.is_free(v) && !self.vert_frozen[v as usize] {
-                self.vert_frozen[v as usize] = true;
-                self.frozen_list.push(v);
+            if self.is_free(v) && !self.area.vert_frozen[v as usize] {
+                self.area.vert_frozen[v as usize] = true;
+                self.area.frozen_list.push(v);
                 *grew = true;
             }
         }
@@ -282,7 +289,7 @@ impl Engine<'_> {
     /// Clears the per-attempt marks.
     pub(super) fn reset_scratch(&mut self) {
         self.clear_patch_marks();
-        self.hold = None;
+        self.trial.hold = None;
         self.maybe_compact_grid();
     }
 }

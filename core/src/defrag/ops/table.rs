@@ -1,0 +1,83 @@
+//! The operation table of the greedy loop: each operation's linked pairs, where it stands, its
+//! failures and its cached seam geometry. Plain data, below the engine state that holds it.
+
+use super::super::RejectReason;
+use crate::plugin::Veto;
+use crate::topology::{ChartId, LinkId, OpKind, Topology};
+
+/// Where an operation stands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum OpState {
+    /// In the queue with its current appeal.
+    Queued,
+    /// Refused by the scorer; rescored when one of its charts changes.
+    Vetoed(Veto),
+    /// Attempted and rolled back; back in the queue only after one of its charts changes.
+    Failed(RejectReason),
+    /// Accepted.
+    Done,
+    /// Replaced by an operation that joins its links with those of another (shared neighbour).
+    Dead,
+}
+
+/// An operation of the greedy loop: the linked pairs it dissolves, all at once.
+#[derive(Clone, Debug)]
+pub(crate) struct EngineOp {
+    pub kind: OpKind,
+    pub links: Vec<LinkId>,
+    pub state: OpState,
+    /// How many times it was attempted and rolled back (the back-off exponent k).
+    pub failures: u32,
+    /// Bumped on every rescore; queue entries of older versions are stale.
+    pub version: u32,
+    /// The small-island look-ahead its last score saw (see `Engine::after_success`).
+    pub island: bool,
+    /// Its seam geometry as last computed for scoring (see `Engine::features`).
+    pub geom: Option<CachedGeometry>,
+}
+
+/// The part of an operation's geometry that rigid motions of either chart leave unchanged: the
+/// dissolved length on each side, the mean alignment error and the number of vertex pairs. It
+/// holds while the operation joins the same two charts and no vertex on its seams has changed
+/// other than rigidly since `at` (a value of `Engine::commits`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct CachedGeometry {
+    pub(super) charts: (ChartId, ChartId),
+    pub(super) len: [f64; 2],
+    pub(super) error: f64,
+    pub(super) pairs: u32,
+    pub(super) at: u32,
+}
+
+impl EngineOp {
+    pub fn is_live(&self) -> bool {
+        !matches!(self.state, OpState::Done | OpState::Dead)
+    }
+}
+
+/// The initial operation table: one engine operation per prepared operation, in id order.
+pub(crate) fn initial_ops(t: &Topology) -> (Vec<EngineOp>, Vec<Vec<u32>>) {
+    let mut ops = Vec::with_capacity(t.ops.len());
+    let mut chart_ops = vec![Vec::new(); t.charts.len()];
+    for (i, o) in t.ops.iter().enumerate() {
+        let links: Vec<LinkId> = t.links_of_op(crate::topology::OpId::from_usize(i)).to_vec();
+        if links.is_empty() {
+            continue;
+        }
+        let id = ops.len() as u32;
+        chart_ops[o.charts[0].idx()].push(id);
+        if o.charts[1] != o.charts[0] {
+            chart_ops[o.charts[1].idx()].push(id);
+        }
+        ops.push(EngineOp {
+            kind: o.kind,
+            links,
+            state: OpState::Vetoed(Veto::ZeroArea),
+            failures: 0,
+            version: 0,
+            island: false,
+            geom: None,
+        });
+    }
+    (ops, chart_ops)
+}
