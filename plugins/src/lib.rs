@@ -1,6 +1,7 @@
 //! scanatlas-plugins: the built-in merge scorers, local solvers and packers, registered by name.
 
 #![cfg_attr(not(test), deny(clippy::print_stdout, clippy::print_stderr))]
+#![deny(missing_docs)]
 
 pub mod packers;
 pub mod scorers;

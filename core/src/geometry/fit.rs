@@ -4,8 +4,9 @@
 /// A proper rigid motion of the plane: `p ↦ R·p + t` with `R` a rotation by `angle`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Rigid2 {
-    /// `cos` and `sin` of the rotation angle (a unit vector).
+    /// The cosine of the rotation angle (`(cos, sin)` is a unit vector).
     pub cos: f64,
+    /// The sine of the rotation angle.
     pub sin: f64,
     /// The translation applied after the rotation.
     pub translation: [f64; 2],

@@ -12,9 +12,11 @@
 /// are exact).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default, serde::Serialize)]
 pub struct GridTransform {
+    /// Whether u is mirrored first (`M` above).
     pub mirror: bool,
     /// Counter-clockwise quarter turns, 0 to 3.
     pub quarter_turns: u8,
+    /// The integer translation applied last, in texels.
     pub offset: [i64; 2],
 }
 

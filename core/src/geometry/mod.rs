@@ -3,6 +3,8 @@
 //!
 //! Everything works in `f64` texel space and never panics on finite or non-finite input.
 
+#![deny(missing_docs)]
+
 pub mod energy;
 pub mod fit;
 pub mod grid;

@@ -77,6 +77,8 @@ pub struct RescuedSolver {
 }
 
 impl RescuedSolver {
+    /// `first` solves every problem; `rescue` gets the problems whose layout from `first` the
+    /// engine refused.
     pub fn new(first: Box<dyn LocalSolver>, rescue: Box<dyn LocalSolver>) -> Self {
         Self { first, rescue }
     }

@@ -41,10 +41,12 @@ impl Footprint {
         Ok(f)
     }
 
+    /// Number of columns (texels along u).
     pub fn width(&self) -> u32 {
         self.width
     }
 
+    /// Number of rows (texels along v).
     pub fn height(&self) -> u32 {
         self.height
     }
@@ -177,6 +179,7 @@ pub const ALL_ROTATIONS: RotationMask = 0b1111;
 /// One thing to place.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct PackItem {
+    /// The texels the item covers, padding included, in its own unturned frame.
     pub footprint: Footprint,
     /// Allowed quarter turns; an empty mask is treated as "no turn" (only bit 0).
     pub rotations: RotationMask,
@@ -194,9 +197,13 @@ impl PackItem {
 /// cell `(0, 0)`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
 pub struct Placement {
+    /// Index of the sheet in [`PackOutput::sheets`].
     pub sheet: u32,
+    /// Counter-clockwise quarter turns, 0 to 3 (an allowed turn of the item).
     pub quarter_turns: u8,
+    /// Sheet column of the turned footprint's cell `(0, 0)`.
     pub x: u32,
+    /// Sheet row of the turned footprint's cell `(0, 0)`.
     pub y: u32,
 }
 
@@ -214,16 +221,44 @@ pub struct PackOutput {
 /// Errors of packers and of the placement checker.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum PackerError {
+    /// A footprint would hold more than [`MAX_FOOTPRINT_CELLS`] cells.
     #[error("a footprint of {width}×{height} cells is too large")]
-    TooLarge { width: u32, height: u32 },
+    TooLarge {
+        /// Columns asked for.
+        width: u32,
+        /// Rows asked for.
+        height: u32,
+    },
+    /// The sheet size (width, height) has a zero side.
     #[error("the sheet size {0}×{1} is empty")]
     EmptySheet(u32, u32),
+    /// The packer's answer does not have one placement per item.
     #[error("the packer returned {got} placements for {expected} items")]
-    Count { expected: usize, got: usize },
+    Count {
+        /// Number of items given.
+        expected: usize,
+        /// Number of placements returned.
+        got: usize,
+    },
+    /// A placement uses a forbidden turn, a missing sheet, or leaves its sheet.
     #[error("item {item}: {reason}")]
-    BadPlacement { item: u32, reason: String },
+    BadPlacement {
+        /// Index of the item.
+        item: u32,
+        /// What is wrong with its placement.
+        reason: String,
+    },
+    /// Two items share a cell.
     #[error("items {a} and {b} overlap on sheet {sheet}")]
-    Overlap { a: u32, b: u32, sheet: u32 },
+    Overlap {
+        /// Index of the first item.
+        a: u32,
+        /// Index of the second item.
+        b: u32,
+        /// The sheet they share.
+        sheet: u32,
+    },
+    /// The packer could not place the items, for a reason of its own.
     #[error("packing failed: {0}")]
     Failed(String),
 }
@@ -233,6 +268,8 @@ pub enum PackerError {
 /// may turn an item only by an allowed quarter turn, and must give an item that fits no
 /// `max_sheet` sheet a sheet of its own instead of dropping it.
 pub trait Packer: Send + Sync {
+    /// Places every item on sheets of at most `max_sheet` (width, height) cells, one placement
+    /// per item in item order; see [`check_packing`] for the exact rules the answer must meet.
     fn pack(&self, items: &[PackItem], max_sheet: (u32, u32)) -> Result<PackOutput, PackerError>;
 }
 

@@ -9,8 +9,11 @@ use super::{LocalSolver, MergeScorer, Packer, RescuedSolver, SolverChain};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum PluginKind {
+    /// A [`MergeScorer`]: ranks the candidate merges.
     Scorer,
+    /// A [`LocalSolver`]: re-optimizes the UVs of a merge's patch.
     Solver,
+    /// A [`Packer`]: places the charts' footprints on sheets.
     Packer,
 }
 
@@ -28,26 +31,37 @@ impl std::fmt::Display for PluginKind {
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 #[serde(untagged)]
 pub enum ParamValue {
+    /// A real number (a tolerance, a weight).
     Float(f64),
+    /// A whole number (a count, a seed).
     Int(i64),
+    /// A switch.
     Bool(bool),
+    /// A word (a mode, such as `slim`'s `init`).
     Text(String),
 }
 
 /// A declared parameter of a plugin.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct ParamInfo {
+    /// The kebab-case key in config files and `member.key` chains.
     pub name: &'static str,
+    /// The value used when none is given; its variant is the parameter's type.
     pub default: ParamValue,
+    /// One line for `scanatlas plugins`.
     pub help: &'static str,
 }
 
 /// The description of a plugin shown by `scanatlas plugins`.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct PluginInfo {
+    /// Which trait the plugin implements.
     pub kind: PluginKind,
+    /// The stable kebab-case name users select it by (`--solver slim`).
     pub name: &'static str,
+    /// One line saying what it does.
     pub summary: &'static str,
+    /// Every parameter it accepts; any other is refused before work starts.
     pub params: Vec<ParamInfo>,
 }
 
@@ -57,14 +71,48 @@ pub type Params = BTreeMap<String, ParamValue>;
 /// Errors of plugin lookup and construction.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum PluginError {
+    /// No plugin of this kind has this name.
     #[error("unknown {kind} `{name}`; available: {available}")]
-    UnknownName { kind: PluginKind, name: String, available: String },
+    UnknownName {
+        /// The kind looked in.
+        kind: PluginKind,
+        /// The name asked for.
+        name: String,
+        /// The registered names of that kind, comma-separated.
+        available: String,
+    },
+    /// The plugin does not declare this parameter.
     #[error("{kind} `{name}` has no parameter `{param}`; its parameters: {available}")]
-    UnknownParam { kind: PluginKind, name: String, param: String, available: String },
+    UnknownParam {
+        /// The plugin's kind.
+        kind: PluginKind,
+        /// The plugin's name.
+        name: String,
+        /// The parameter given.
+        param: String,
+        /// The parameters it declares, comma-separated (`none` when it has none).
+        available: String,
+    },
+    /// The parameter's value has the wrong type or lies outside its range.
     #[error("{kind} `{name}`: parameter `{param}`: {msg}")]
-    BadParam { kind: PluginKind, name: String, param: String, msg: String },
+    BadParam {
+        /// The plugin's kind.
+        kind: PluginKind,
+        /// The plugin's name.
+        name: String,
+        /// The parameter.
+        param: String,
+        /// What is wrong with the value.
+        msg: String,
+    },
+    /// A plugin of this kind is already registered under this name.
     #[error("a {kind} named `{name}` is already registered")]
-    Duplicate { kind: PluginKind, name: String },
+    Duplicate {
+        /// The plugin's kind.
+        kind: PluginKind,
+        /// The name taken.
+        name: String,
+    },
 }
 
 type ScorerFactory =
@@ -134,6 +182,8 @@ fn lookup<'a, F>(
 }
 
 impl Registry {
+    /// Registers a scorer under `info.name`; `factory` builds it from checked parameters.
+    /// Refuses a name already taken by another scorer.
     pub fn register_scorer(
         &mut self,
         info: PluginInfo,
@@ -142,6 +192,8 @@ impl Registry {
         insert(&mut self.scorers, info, Box::new(factory))
     }
 
+    /// Registers a solver under `info.name`; `factory` builds one instance per worker from
+    /// checked parameters. Refuses a name already taken by another solver.
     pub fn register_solver(
         &mut self,
         info: PluginInfo,
@@ -150,6 +202,8 @@ impl Registry {
         insert(&mut self.solvers, info, Box::new(factory))
     }
 
+    /// Registers a packer under `info.name`; `factory` builds it from checked parameters.
+    /// Refuses a name already taken by another packer.
     pub fn register_packer(
         &mut self,
         info: PluginInfo,

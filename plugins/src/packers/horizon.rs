@@ -504,6 +504,8 @@ impl Sheet {
 }
 
 impl HorizonPacker {
+    /// The packer with the parameters given (defaults for the others), refusing values out of
+    /// range.
     pub fn from_params(params: &Params) -> Result<Self, PluginError> {
         let info = info();
         Ok(Self {

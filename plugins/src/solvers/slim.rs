@@ -76,6 +76,7 @@ pub struct SlimParams {
     /// Stop when an iteration lowers the excess symmetric Dirichlet energy (`E − 4` per unit area,
     /// 0 for an isometry) by less than this fraction.
     pub tolerance: f64,
+    /// How to get the flip-free start SLIM needs.
     pub init: Init,
 }
 
