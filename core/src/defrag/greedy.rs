@@ -285,15 +285,7 @@ impl Engine<'_> {
                         self.ops[op as usize].state = OpState::Dead;
                     }
                     let id = self.ops.len() as u32;
-                    self.ops.push(EngineOp {
-                        kind: OpKind::Inter,
-                        links,
-                        state: OpState::Vetoed(Veto::ZeroArea),
-                        failures: 0,
-                        version: 0,
-                        island: false,
-                        geom: None,
-                    });
+                    self.ops.push(EngineOp::new(OpKind::Inter, links));
                     list.push(id);
                     self.chart_ops[by_other[i].0.idx()].push(id);
                 }

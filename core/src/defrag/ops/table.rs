@@ -50,6 +50,19 @@ pub(crate) struct CachedGeometry {
 }
 
 impl EngineOp {
+    /// A new operation dissolving `links`, vetoed until its first scoring.
+    pub fn new(kind: OpKind, links: Vec<LinkId>) -> Self {
+        Self {
+            kind,
+            links,
+            state: OpState::Vetoed(Veto::ZeroArea),
+            failures: 0,
+            version: 0,
+            island: false,
+            geom: None,
+        }
+    }
+
     pub fn is_live(&self) -> bool {
         !matches!(self.state, OpState::Done | OpState::Dead)
     }
@@ -69,15 +82,7 @@ pub(crate) fn initial_ops(t: &Topology) -> (Vec<EngineOp>, Vec<Vec<u32>>) {
         if o.charts[1] != o.charts[0] {
             chart_ops[o.charts[1].idx()].push(id);
         }
-        ops.push(EngineOp {
-            kind: o.kind,
-            links,
-            state: OpState::Vetoed(Veto::ZeroArea),
-            failures: 0,
-            version: 0,
-            island: false,
-            geom: None,
-        });
+        ops.push(EngineOp::new(o.kind, links));
     }
     (ops, chart_ops)
 }

@@ -255,12 +255,7 @@ impl Buffers {
         let mut images = Vec::with_capacity(model.sheets.len());
         let mut textures = Vec::with_capacity(model.sheets.len());
         for (s, sheet) in model.sheets.iter().enumerate() {
-            let mut img = Map::new();
-            if let crate::model::ImageSource::Embedded { name, .. } = &sheet.image {
-                img.insert("name".into(), json!(name));
-            }
-            output::set_image_source(
-                &mut img,
+            let img = output::sheet_image(
                 &sheet.image,
                 out_dir,
                 opts,

@@ -168,6 +168,24 @@ fn embedded_mime(name: &str, mime: &str, bytes: &[u8]) -> String {
     }
 }
 
+/// A new image object for a sheet image: its name when the image came embedded with one, and its
+/// source members (see [`set_image_source`]).
+pub(super) fn sheet_image(
+    src: &ImageSource,
+    out_dir: &Path,
+    opts: &WriteOptions,
+    binary: bool,
+    bin: &mut Bin,
+    views: &mut Vec<Value>,
+) -> Result<Map<String, Value>, IoError> {
+    let mut img = Map::new();
+    if let ImageSource::Embedded { name, .. } = src {
+        img.insert("name".into(), serde_json::json!(name));
+    }
+    set_image_source(&mut img, src, out_dir, opts, binary, bin, views)?;
+    Ok(img)
+}
+
 /// Sets the source members of image object `img` for a sheet image: an external `uri` relative
 /// to `out_dir` for `.gltf`, the bytes embedded in the buffer for `.glb` (and for embedded
 /// sources in both cases). A file whose type GLB cannot embed stays an external reference.

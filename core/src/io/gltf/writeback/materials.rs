@@ -4,7 +4,7 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use serde_json::{Map, Value, json};
+use serde_json::{Value, json};
 
 use super::super::reader::texture_info_transform;
 use super::super::refs::array_mut;
@@ -142,12 +142,7 @@ impl MaterialWriter<'_> {
         let sheet_data = self.model.sheets.get(sheet.idx()).ok_or_else(|| {
             IoError::invalid(self.path, format!("material {i}: sheet {sheet} does not exist"))
         })?;
-        let mut img = Map::new();
-        if let crate::model::ImageSource::Embedded { name, .. } = &sheet_data.image {
-            img.insert("name".into(), json!(name));
-        }
-        output::set_image_source(
-            &mut img,
+        let mut img = output::sheet_image(
             &sheet_data.image,
             &self.out_dir,
             self.opts,
