@@ -1,7 +1,8 @@
 //! The mutable state of the merge engine on top of a prepared [`Topology`]: the corners of each UV
 //! vertex (fans, as linked lists that fusing splices), per-face caches (signed area, weighted
-//! energy), per-chart face lists, the atlas-wide energy and border sums, the face grid, the undo
-//! logs and the scratch buffers reused by every attempt.
+//! energy), per-chart face lists, the atlas-wide energy and border sums, the face grid and the undo
+//! logs; and one scratch struct per module, reused by every attempt (each declared in its
+//! module's `scratch.rs`).
 
 use super::attempt::scratch::AttemptScratch;
 use super::grid::FaceGrid;
@@ -134,36 +135,9 @@ impl<'t> Engine<'t> {
         let nv = t.uv_pos.len();
         let mut report = MergeReport::default();
 
-        // Mirror u of every mergeable chart whose signed area is negative, about its bbox centre.
-        let mirror: Vec<bool> = t.charts.iter().map(|c| !c.frozen && c.area_signed < 0.0).collect();
-        for (p, c) in t.uv_pos.iter_mut().zip(&t.uv_chart) {
-            if !c.is_none() && mirror[c.idx()] {
-                let b = t.charts[c.idx()].bbox;
-                p[0] = (b[0] + b[2]) - p[0];
-            }
-        }
-        for (ch, &m) in t.charts.iter_mut().zip(&mirror) {
-            if m {
-                ch.area_signed = -ch.area_signed;
-                report.mirrored_charts += 1;
-            }
-        }
-
-        let nc = t.corner_uv.len();
-        let mut fan_head = vec![NONE; nv];
-        let mut fan_tail = vec![NONE; nv];
-        let mut fan_next = vec![NONE; nc];
-        for c in (0..nc).rev() {
-            let v = t.corner_uv[c];
-            if v.is_none() {
-                continue;
-            }
-            fan_next[c] = fan_head[v.idx()];
-            fan_head[v.idx()] = c as u32;
-            if fan_tail[v.idx()] == NONE {
-                fan_tail[v.idx()] = c as u32;
-            }
-        }
+        let mirror = mirror_negative_charts(t);
+        report.mirrored_charts = mirror.iter().filter(|&&m| m).count() as u64;
+        let (fan_head, fan_tail, fan_next) = build_fans(t);
 
         let mut face_area2 = vec![0.0; nf];
         let mut face_weight = vec![0.0; nf];
@@ -405,6 +379,46 @@ impl<'t> Engine<'t> {
             .collect();
         MergedLayout { face_chart, n_charts: n as usize, optimized: self.face_optimized.clone() }
     }
+}
+
+/// Mirrors u of every mergeable chart whose signed area is negative, about its bbox centre, and
+/// returns which charts were mirrored.
+fn mirror_negative_charts(t: &mut Topology) -> Vec<bool> {
+    let mirror: Vec<bool> = t.charts.iter().map(|c| !c.frozen && c.area_signed < 0.0).collect();
+    for (p, c) in t.uv_pos.iter_mut().zip(&t.uv_chart) {
+        if !c.is_none() && mirror[c.idx()] {
+            let b = t.charts[c.idx()].bbox;
+            p[0] = (b[0] + b[2]) - p[0];
+        }
+    }
+    for (ch, &m) in t.charts.iter_mut().zip(&mirror) {
+        if m {
+            ch.area_signed = -ch.area_signed;
+        }
+    }
+    mirror
+}
+
+/// The fans of the UV vertices: the first and last corner of each vertex, and the next corner of
+/// each corner, in corner order.
+fn build_fans(t: &Topology) -> (Vec<u32>, Vec<u32>, Vec<u32>) {
+    let nc = t.corner_uv.len();
+    let nv = t.uv_pos.len();
+    let mut fan_head = vec![NONE; nv];
+    let mut fan_tail = vec![NONE; nv];
+    let mut fan_next = vec![NONE; nc];
+    for c in (0..nc).rev() {
+        let v = t.corner_uv[c];
+        if v.is_none() {
+            continue;
+        }
+        fan_next[c] = fan_head[v.idx()];
+        fan_head[v.idx()] = c as u32;
+        if fan_tail[v.idx()] == NONE {
+            fan_tail[v.idx()] = c as u32;
+        }
+    }
+    (fan_head, fan_tail, fan_next)
 }
 
 /// The current UV triangle of face `f`.

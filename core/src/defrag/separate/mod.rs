@@ -128,67 +128,13 @@ impl Engine<'_> {
         }
         let reach = STEPS[STEPS.len() - 1] * scale;
         let p0 = self.t.uv_pos[v as usize];
-        // The box each fan face can sweep while v moves within `reach` (a hair wider, so that no
-        // rounding of a trial position can leave it): a face that stays put outside it can never
-        // overlap that fan face, and the pair need not be tested at any of the trial positions.
-        let margin = reach * (1.0 + 1e-9) + 1e-12 * (p0[0].abs() + p0[1].abs());
-        let disc = [p0[0] - margin, p0[1] - margin, p0[0] + margin, p0[1] + margin];
-        self.sep.swept.clear();
-        for i in 0..self.sep.faces.len() {
-            let f = self.sep.faces[i] as usize;
-            let mut b = disc;
-            for k in 0..3 {
-                if self.t.corner_uv[3 * f + k].0 != v {
-                    let q = self.t.uv_pos[self.t.corner_uv[3 * f + k].0 as usize];
-                    b = [b[0].min(q[0]), b[1].min(q[1]), b[2].max(q[0]), b[3].max(q[1])];
-                }
-            }
-            self.sep.swept.push(b);
-        }
+        self.sweep_boxes(v, reach);
         self.shared.candidates.clear();
         self.grid.query(
             [bbox[0] - reach, bbox[1] - reach, bbox[2] + reach, bbox[3] + reach],
             &mut self.shared.candidates,
         );
-        // The pairs to watch: overlaps two faces of one chart had before the attempt stay
-        // tolerated wherever the vertex goes, so they are left out once here. Each pair holds
-        // the index of its moving face in `sep.faces`, and for the other face either its index
-        // there too (when it moves with the vertex) or its triangle, which stays put.
-        self.sep.tests.clear();
-        self.sep.static_tris.clear();
-        for i in 0..self.sep.faces.len() {
-            let f = self.sep.faces[i] as usize;
-            let (chart, before) = (self.t.face_chart[f], self.tri_before(f));
-            for j in 0..self.shared.candidates.len() {
-                let s = self.shared.candidates[j] as usize;
-                let cs = self.t.face_chart[s];
-                if s == f || (cs != g.a && cs != g.b) {
-                    continue;
-                }
-                let other = match self.sep.faces.iter().position(|&x| x as usize == s) {
-                    Some(k) => (Other::Fan(k as u32), None),
-                    None => {
-                        let (tri, w) = (self.tri(s), self.sep.swept[i]);
-                        let b = tri_bbox(&tri);
-                        // As `triangles_overlap` reads boxes: touching ones do not overlap.
-                        if b[2] <= w[0] || w[2] <= b[0] || b[3] <= w[1] || w[3] <= b[1] {
-                            continue;
-                        }
-                        (Other::Static(self.sep.static_tris.len() as u32), Some(tri))
-                    }
-                };
-                let tolerated =
-                    cs == chart && triangles_overlap_beyond_noise(before, self.tri_before(s));
-                if tolerated {
-                    continue;
-                }
-                let (other, tri) = other;
-                if let Some(tri) = tri {
-                    self.sep.static_tris.push(tri);
-                }
-                self.sep.tests.push((i as u32, other));
-            }
-        }
+        self.watch_pairs(g);
         self.fan_tris_now();
         // The overlapping pairs go first: a move must undo some of them before the others are
         // worth testing, and it must undo more than it creates.
@@ -239,6 +185,72 @@ impl Engine<'_> {
             }
         }
         false
+    }
+
+    /// The box each face of `sep.faces` can sweep while vertex `v` moves within `reach` (a hair
+    /// wider, so that no rounding of a trial position can leave it): a face that stays put
+    /// outside it can never overlap that fan face, and the pair need not be tested at any of the
+    /// trial positions.
+    fn sweep_boxes(&mut self, v: u32, reach: f64) {
+        let p0 = self.t.uv_pos[v as usize];
+        let margin = reach * (1.0 + 1e-9) + 1e-12 * (p0[0].abs() + p0[1].abs());
+        let disc = [p0[0] - margin, p0[1] - margin, p0[0] + margin, p0[1] + margin];
+        self.sep.swept.clear();
+        for i in 0..self.sep.faces.len() {
+            let f = self.sep.faces[i] as usize;
+            let mut b = disc;
+            for k in 0..3 {
+                if self.t.corner_uv[3 * f + k].0 != v {
+                    let q = self.t.uv_pos[self.t.corner_uv[3 * f + k].0 as usize];
+                    b = [b[0].min(q[0]), b[1].min(q[1]), b[2].max(q[0]), b[3].max(q[1])];
+                }
+            }
+            self.sep.swept.push(b);
+        }
+    }
+
+    /// Fills `sep.tests` with the pairs to watch among the faces of `sep.faces` and the grid
+    /// candidates of charts a and b of `g`.
+    fn watch_pairs(&mut self, g: &OpGeometry) {
+        // The pairs to watch: overlaps two faces of one chart had before the attempt stay
+        // tolerated wherever the vertex goes, so they are left out once here. Each pair holds
+        // the index of its moving face in `sep.faces`, and for the other face either its index
+        // there too (when it moves with the vertex) or its triangle, which stays put.
+        self.sep.tests.clear();
+        self.sep.static_tris.clear();
+        for i in 0..self.sep.faces.len() {
+            let f = self.sep.faces[i] as usize;
+            let (chart, before) = (self.t.face_chart[f], self.tri_before(f));
+            for j in 0..self.shared.candidates.len() {
+                let s = self.shared.candidates[j] as usize;
+                let cs = self.t.face_chart[s];
+                if s == f || (cs != g.a && cs != g.b) {
+                    continue;
+                }
+                let other = match self.sep.faces.iter().position(|&x| x as usize == s) {
+                    Some(k) => (Other::Fan(k as u32), None),
+                    None => {
+                        let (tri, w) = (self.tri(s), self.sep.swept[i]);
+                        let b = tri_bbox(&tri);
+                        // As `triangles_overlap` reads boxes: touching ones do not overlap.
+                        if b[2] <= w[0] || w[2] <= b[0] || b[3] <= w[1] || w[3] <= b[1] {
+                            continue;
+                        }
+                        (Other::Static(self.sep.static_tris.len() as u32), Some(tri))
+                    }
+                };
+                let tolerated =
+                    cs == chart && triangles_overlap_beyond_noise(before, self.tri_before(s));
+                if tolerated {
+                    continue;
+                }
+                let (other, tri) = other;
+                if let Some(tri) = tri {
+                    self.sep.static_tris.push(tri);
+                }
+                self.sep.tests.push((i as u32, other));
+            }
+        }
     }
 
     /// Takes the current triangles of the faces in `sep.faces` into `sep.fan_tris`.
