@@ -5,6 +5,7 @@
 //! exact input order; see [`read`]. The writer streams the OBJ, its MTL and any embedded sheet
 //! images through atomic files; see [`write`].
 
+mod chunk;
 mod lex;
 mod mtl;
 mod read;
