@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use super::PipelineError;
+use super::naming::SheetNumbering;
 use crate::atomic::is_protected;
 use crate::io::paths::parent_dir;
 use crate::io::{Relocation, WriteOptions};
@@ -35,6 +36,7 @@ pub struct RunContext {
     work_dir: PathBuf,
     report: Option<PathBuf>,
     protect: Vec<PathBuf>,
+    sheet_numbering: SheetNumbering,
     // Declared before the lock, so the staging folder goes before the lock is released.
     staging: Staging,
     _lock: OutputLock,
@@ -180,6 +182,7 @@ impl RunContext {
             work_dir,
             report: paths.report.map(Path::to_path_buf),
             protect,
+            sheet_numbering: model.map(SheetNumbering::of_model).unwrap_or_default(),
             staging,
             _lock: lock,
         })
@@ -205,6 +208,12 @@ impl RunContext {
     /// The output's folder.
     pub fn out_dir(&self) -> &Path {
         &self.out_dir
+    }
+
+    /// How the output's sheet files are numbered, after the input model's (see
+    /// [`SheetNumbering::of_model`]).
+    pub fn sheet_numbering(&self) -> SheetNumbering {
+        self.sheet_numbering
     }
 
     /// The folder of the temporary tile files.

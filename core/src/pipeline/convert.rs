@@ -8,6 +8,7 @@ use rayon::prelude::*;
 
 use super::PipelineError;
 use super::context::{RunContext, RunPaths, check_paths, tile_bytes};
+use super::naming::SheetNumbering;
 use crate::model::ImageSource;
 use crate::texture::encode::{EncodeOptions, write_image};
 use crate::texture::{ImageFormat, TileStore, decode};
@@ -40,18 +41,13 @@ pub struct ConvertReport {
     pub warnings: Vec<Warning>,
 }
 
-/// The file name of output sheet `k` of a model written to `output`.
-pub fn output_sheet_path(output: &Path, k: usize, format: ImageFormat) -> PathBuf {
-    let stem = output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    output.with_file_name(format!("{stem}_{k}.{}", format.extension()))
-}
-
-/// Writes `sheets` beside `output` (see [`output_sheet_path`]) in `enc`'s format, one encoder per
+/// Writes `sheets` beside `output` (named by `numbering`) in `enc`'s format, one encoder per
 /// sheet side by side: each encoder is single-threaded, and a sheet's file depends on nothing
 /// but its own texels, so the bytes are the same in any order. Returns the paths in sheet order.
 pub(super) fn write_sheets(
     sheets: &[TileStore],
     output: &Path,
+    numbering: SheetNumbering,
     format: ImageFormat,
     enc: &EncodeOptions,
 ) -> Result<Vec<PathBuf>, PipelineError> {
@@ -59,7 +55,7 @@ pub(super) fn write_sheets(
         .par_iter()
         .enumerate()
         .map(|(k, store)| {
-            let path = output_sheet_path(output, k, format);
+            let path = numbering.sheet_path(output, k, format);
             write_image(store, &path, enc).map(|()| path)
         })
         .collect::<Result<Vec<PathBuf>, _>>()?;
@@ -97,7 +93,7 @@ pub fn convert(
             Some(f) => f,
             None => ImageFormat::of_source(&sheet.image)?,
         };
-        let path = output_sheet_path(&staged, k, format);
+        let path = ctx.sheet_numbering().sheet_path(&staged, k, format);
         let enc = EncodeOptions {
             format: Some(format),
             jpeg_quality: opts.jpeg_quality,
