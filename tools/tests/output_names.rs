@@ -90,3 +90,36 @@ fn other_inputs_give_indexed_sheets() {
         assert_eq!(map, &format!("out_{k}.png"));
     }
 }
+
+#[test]
+fn a_gltf_keeps_its_image_subfolder_and_the_output_loads() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out =
+        scanatlas(&["synth", "g", "--faces", "2000", "--sheet-size", "256", "--format", "gltf"], d);
+    assert!(out.status.success(), "{}", stderr(&out));
+    std::fs::create_dir(d.join("g/textures")).unwrap();
+    std::fs::rename(d.join("g/sheet_0.png"), d.join("g/textures/sheet_0.png")).unwrap();
+    let doc = std::fs::read_to_string(d.join("g/scan.gltf")).unwrap();
+    let doc = doc.replace("\"uri\": \"sheet_0.png\"", "\"uri\": \"textures/sheet_0.png\"");
+    std::fs::write(d.join("g/scan.gltf"), doc).unwrap();
+
+    for output in ["o/out.gltf", "p/out.obj"] {
+        let out = scanatlas(&["defrag", "g/scan.gltf", "-o", output, "-q"], d);
+        assert!(out.status.success(), "{output}: {}", stderr(&out));
+        let folder = d.join(Path::new(output).parent().unwrap());
+        assert!(folder.join("textures/out_0.png").is_file(), "{output}: no textures/out_0.png");
+        assert!(!folder.join("out_0.png").exists());
+        let stats = scanatlas(&["stats", output], d);
+        assert!(stats.status.success(), "{output} does not load: {}", stderr(&stats));
+        // No staging folder or journal is left beside the output.
+        let hidden = std::fs::read_dir(&folder).unwrap().flatten();
+        let hidden: Vec<_> =
+            hidden.filter(|e| e.file_name().to_string_lossy().starts_with('.')).collect();
+        assert!(hidden.is_empty(), "{output}: {hidden:?}");
+    }
+    let doc = std::fs::read_to_string(d.join("o/out.gltf")).unwrap();
+    assert!(doc.contains("\"textures/out_0.png\""), "{doc}");
+    let mtl = std::fs::read_to_string(d.join("p/out.mtl")).unwrap();
+    assert!(mtl.contains("map_Kd textures/out_0.png"), "{mtl}");
+}

@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use super::PipelineError;
-use super::naming::SheetNumbering;
+use super::naming::SheetNaming;
 use crate::atomic::is_protected;
 use crate::io::paths::parent_dir;
 use crate::io::{Relocation, WriteOptions};
@@ -36,7 +36,7 @@ pub struct RunContext {
     work_dir: PathBuf,
     report: Option<PathBuf>,
     protect: Vec<PathBuf>,
-    sheet_numbering: SheetNumbering,
+    sheet_naming: SheetNaming,
     // Declared before the lock, so the staging folder goes before the lock is released.
     staging: Staging,
     _lock: OutputLock,
@@ -182,7 +182,7 @@ impl RunContext {
             work_dir,
             report: paths.report.map(Path::to_path_buf),
             protect,
-            sheet_numbering: model.map(SheetNumbering::of_model).unwrap_or_default(),
+            sheet_naming: model.map(SheetNaming::of_model).unwrap_or_default(),
             staging,
             _lock: lock,
         })
@@ -210,10 +210,10 @@ impl RunContext {
         &self.out_dir
     }
 
-    /// How the output's sheet files are numbered, after the input model's (see
-    /// [`SheetNumbering::of_model`]).
-    pub fn sheet_numbering(&self) -> SheetNumbering {
-        self.sheet_numbering
+    /// Where the output's sheet files go and how they are numbered, after the input model's
+    /// (see [`SheetNaming::of_model`]).
+    pub fn sheet_naming(&self) -> &SheetNaming {
+        &self.sheet_naming
     }
 
     /// The folder of the temporary tile files.

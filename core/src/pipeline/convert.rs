@@ -8,7 +8,7 @@ use rayon::prelude::*;
 
 use super::PipelineError;
 use super::context::{RunContext, RunPaths, check_paths, tile_bytes};
-use super::naming::SheetNumbering;
+use super::naming::SheetNaming;
 use crate::model::ImageSource;
 use crate::texture::encode::{EncodeOptions, write_image};
 use crate::texture::{ImageFormat, TileStore, decode};
@@ -41,21 +41,22 @@ pub struct ConvertReport {
     pub warnings: Vec<Warning>,
 }
 
-/// Writes `sheets` beside `output` (named by `numbering`) in `enc`'s format, one encoder per
+/// Writes `sheets` where `naming` puts them for `output` in `enc`'s format, one encoder per
 /// sheet side by side: each encoder is single-threaded, and a sheet's file depends on nothing
 /// but its own texels, so the bytes are the same in any order. Returns the paths in sheet order.
 pub(super) fn write_sheets(
     sheets: &[TileStore],
     output: &Path,
-    numbering: SheetNumbering,
+    naming: &SheetNaming,
     format: ImageFormat,
     enc: &EncodeOptions,
 ) -> Result<Vec<PathBuf>, PipelineError> {
+    naming.create_folder(output)?;
     let paths = sheets
         .par_iter()
         .enumerate()
         .map(|(k, store)| {
-            let path = numbering.sheet_path(output, k, format);
+            let path = naming.sheet_path(output, k, format);
             write_image(store, &path, enc).map(|()| path)
         })
         .collect::<Result<Vec<PathBuf>, _>>()?;
@@ -85,6 +86,7 @@ pub fn convert(
 
     let t1 = Instant::now();
     let staged = ctx.staged_output();
+    ctx.sheet_naming().create_folder(&staged)?;
     let mut written = Vec::with_capacity(model.sheets.len());
     for (k, sheet) in model.sheets.iter_mut().enumerate() {
         ctx.checkpoint()?;
@@ -93,7 +95,7 @@ pub fn convert(
             Some(f) => f,
             None => ImageFormat::of_source(&sheet.image)?,
         };
-        let path = ctx.sheet_numbering().sheet_path(&staged, k, format);
+        let path = ctx.sheet_naming().sheet_path(&staged, k, format);
         let enc = EncodeOptions {
             format: Some(format),
             jpeg_quality: opts.jpeg_quality,

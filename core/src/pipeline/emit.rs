@@ -83,7 +83,7 @@ pub(super) fn synthesize(
     let paths = super::convert::write_sheets(
         &out.sheets,
         &ctx.staged_output(),
-        ctx.sheet_numbering(),
+        ctx.sheet_naming(),
         format,
         &enc,
     )?;

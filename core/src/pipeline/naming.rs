@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::model::{ImageSource, Material, Model};
+use crate::model::{ImageSource, Material, Model, Origin};
 use crate::texture::ImageFormat;
 
 /// The first UDIM tile number.
@@ -19,27 +19,83 @@ pub enum SheetNumbering {
     Udim,
 }
 
-impl SheetNumbering {
-    /// UDIM numbering when the input's sheets are files numbered as UDIM tiles from 1001 in
-    /// sheet order (`texture_1001.png`, as Meshroom writes, or `scan.1001.png`); the index
-    /// numbering otherwise.
+/// Where the output's sheet files go and how they are numbered.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct SheetNaming {
+    pub numbering: SheetNumbering,
+    /// A folder below the output model's that holds the sheets (`textures`), as the input's
+    /// images were kept; `None`: beside the model.
+    pub subfolder: Option<PathBuf>,
+}
+
+impl SheetNaming {
+    /// The naming that follows `model`'s: UDIM numbering when its sheets are files numbered as
+    /// UDIM tiles from 1001 in sheet order (`texture_1001.png`, as Meshroom writes, or
+    /// `scan.1001.png`); a glTF's image subfolder when every sheet is a file in one folder below
+    /// the document's (`textures/`, as Sketchfab exports are laid out).
     pub fn of_model(model: &Model) -> Self {
-        let udim = !model.sheets.is_empty()
-            && model.sheets.iter().enumerate().all(|(k, sheet)| match &sheet.image {
-                ImageSource::File(path) => udim_tile(path) == Some(FIRST_UDIM + k),
-                _ => false,
-            });
-        if udim { Self::Udim } else { Self::Index }
+        let files: Option<Vec<&Path>> = model
+            .sheets
+            .iter()
+            .map(|sheet| match &sheet.image {
+                ImageSource::File(path) => Some(path.as_path()),
+                _ => None,
+            })
+            .collect();
+        let Some(files) = files.filter(|f| !f.is_empty()) else {
+            return Self::default();
+        };
+        let udim = files.iter().enumerate().all(|(k, f)| udim_tile(f) == Some(FIRST_UDIM + k));
+        let numbering = if udim { SheetNumbering::Udim } else { SheetNumbering::Index };
+        let gltf = matches!(model.origin, Origin::Gltf(_));
+        let subfolder = if gltf { common_subfolder(&model.path, &files) } else { None };
+        Self { numbering, subfolder }
     }
 
-    /// The path of output sheet `k` of `output`, beside it.
-    pub fn sheet_path(self, output: &Path, k: usize, format: ImageFormat) -> PathBuf {
+    /// Creates the sheets' subfolder beside `output`, if they have one.
+    pub fn create_folder(&self, output: &Path) -> Result<(), super::PipelineError> {
+        match &self.subfolder {
+            Some(sub) => super::create_dir(&crate::io::paths::parent_dir(output).join(sub)),
+            None => Ok(()),
+        }
+    }
+
+    /// The path of output sheet `k` of `output`.
+    pub fn sheet_path(&self, output: &Path, k: usize, format: ImageFormat) -> PathBuf {
         let stem = output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-        let number = match self {
-            Self::Index => k,
-            Self::Udim => FIRST_UDIM + k,
+        let number = match self.numbering {
+            SheetNumbering::Index => k,
+            SheetNumbering::Udim => FIRST_UDIM + k,
         };
-        output.with_file_name(format!("{stem}_{number}.{}", format.extension()))
+        let name = format!("{stem}_{number}.{}", format.extension());
+        let dir = crate::io::paths::parent_dir(output);
+        match &self.subfolder {
+            Some(sub) => dir.join(sub).join(name),
+            None => dir.join(name),
+        }
+    }
+}
+
+/// The folder below `model`'s own that holds every one of `files`, if there is one.
+fn common_subfolder(model: &Path, files: &[&Path]) -> Option<PathBuf> {
+    use std::path::Component;
+    let base = normalize(&crate::io::paths::parent_dir(model));
+    let sub_of = |f: &Path| -> Option<PathBuf> {
+        let folder = normalize(&crate::io::paths::parent_dir(f));
+        let rel = folder.strip_prefix(&base).ok()?.to_path_buf();
+        let below = rel.components().count() > 0
+            && rel.components().all(|c| matches!(c, Component::Normal(_)));
+        below.then_some(rel)
+    };
+    let first = sub_of(files[0])?;
+    files[1..].iter().all(|f| sub_of(f).as_ref() == Some(&first)).then_some(first)
+}
+
+/// `path` made absolute (from the working folder) without `.` and `..`.
+fn normalize(path: &Path) -> PathBuf {
+    match std::env::current_dir() {
+        Ok(cwd) => crate::io::paths::normalize(&cwd.join(path)),
+        Err(_) => crate::io::paths::normalize(path),
     }
 }
 
@@ -91,7 +147,7 @@ mod tests {
 
     #[test]
     fn udim_numbering_needs_every_sheet_numbered_from_1001_in_order() {
-        let of = |files: &[&str]| SheetNumbering::of_model(&model_with_sheets(files));
+        let of = |files: &[&str]| SheetNaming::of_model(&model_with_sheets(files)).numbering;
         assert_eq!(of(&["a/texture_1001.png"]), SheetNumbering::Udim);
         assert_eq!(of(&["t.1001.jpg", "t.1002.jpg"]), SheetNumbering::Udim);
         assert_eq!(of(&["texture_1002.png"]), SheetNumbering::Index);
@@ -100,10 +156,31 @@ mod tests {
         assert_eq!(of(&["_1001.png"]), SheetNumbering::Index);
         assert_eq!(of(&[]), SheetNumbering::Index);
         let out = Path::new("d/o.obj");
-        let udim = SheetNumbering::Udim.sheet_path(out, 1, ImageFormat::Png);
-        assert_eq!(udim, Path::new("d/o_1002.png"));
-        let index = SheetNumbering::Index.sheet_path(out, 1, ImageFormat::Png);
-        assert_eq!(index, Path::new("d/o_1.png"));
+        let udim = SheetNaming { numbering: SheetNumbering::Udim, subfolder: None };
+        assert_eq!(udim.sheet_path(out, 1, ImageFormat::Png), Path::new("d/o_1002.png"));
+        let index = SheetNaming::default();
+        assert_eq!(index.sheet_path(out, 1, ImageFormat::Png), Path::new("d/o_1.png"));
+    }
+
+    #[test]
+    fn a_gltf_keeps_the_one_subfolder_below_it_that_holds_every_sheet() {
+        let gltf = |files: &[&str]| {
+            let mut m = model_with_sheets(files);
+            m.path = PathBuf::from("m/scene.gltf");
+            m.origin = Origin::Gltf(Box::default());
+            SheetNaming::of_model(&m).subfolder
+        };
+        let textures = Some(PathBuf::from("textures"));
+        assert_eq!(gltf(&["m/textures/a.png", "m/./textures/b.png"]), textures);
+        assert_eq!(gltf(&["m/textures/a.png", "m/other/b.png"]), None);
+        assert_eq!(gltf(&["m/a.png"]), None);
+        assert_eq!(gltf(&["elsewhere/textures/a.png"]), None);
+        let mut obj = model_with_sheets(&["m/textures/a.png"]);
+        obj.path = PathBuf::from("m/scan.obj");
+        assert_eq!(SheetNaming::of_model(&obj).subfolder, None);
+        let naming = SheetNaming { numbering: SheetNumbering::Index, subfolder: textures };
+        let path = naming.sheet_path(Path::new("o/out.gltf"), 0, ImageFormat::Jpeg);
+        assert_eq!(path, Path::new("o/textures/out_0.jpg"));
     }
 
     #[test]

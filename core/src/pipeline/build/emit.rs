@@ -31,11 +31,10 @@ pub(super) fn emit(
         webp_quality: None,
         protect: ctx.protected().to_vec(),
     };
-    let numbering = ctx.sheet_numbering();
     let sheet_paths = crate::pipeline::convert::write_sheets(
         sheets,
         &staged,
-        numbering,
+        ctx.sheet_naming(),
         cfg.texture_format,
         &enc,
     )?;
