@@ -545,3 +545,29 @@ fn webp_sheets_are_written_read_and_referenced_through_the_gltf_extension() {
     let out = scanatlas(&["convert", "l/q.gltf", "-o", "p/q.obj", "--texture-format", "png"], d);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
 }
+
+/// `scanatlas stats --json | head -0`: a reader that stops reading ends the output quietly, as
+/// with any Unix filter, instead of a panic on the broken pipe.
+#[test]
+fn a_closed_stdout_pipe_is_not_a_panic() {
+    use std::process::{Command, Stdio};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = scanatlas(&["synth", "s", "--faces", "2000", "--sheet-size", "256", "-q"], d);
+    assert!(out.status.success());
+    for args in [&["stats", "s/scan.obj", "--json"][..], &["stats", "s/scan.obj"], &["plugins"]] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_scanatlas"))
+            .args(args)
+            .current_dir(d)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Closed before the command has written anything.
+        drop(child.stdout.take());
+        let out = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert!(out.status.success(), "{args:?}: {:?} {err}", out.status);
+    }
+}
