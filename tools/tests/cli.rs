@@ -571,3 +571,24 @@ fn a_closed_stdout_pipe_is_not_a_panic() {
         assert!(out.status.success(), "{args:?}: {:?} {err}", out.status);
     }
 }
+
+/// A sheet wider than WebP allows is refused by `convert` before any work, not by the encoder
+/// after the other sheets are written.
+#[test]
+fn convert_refuses_a_sheet_too_wide_for_webp_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut png = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut png, 16384, 1);
+        enc.set_color(png::ColorType::Rgb);
+        let mut w = enc.write_header().unwrap();
+        w.write_image_data(&vec![128; 16384 * 3]).unwrap();
+    }
+    write(d, "wide.png", &png);
+    write(d, "m.mtl", b"newmtl a\nmap_Kd wide.png\n");
+    write(d, "m.obj", QUAD_OBJ.as_bytes());
+    let out = scanatlas(&["convert", "m.obj", "-o", "o/m.obj", "--texture-format", "webp"], d);
+    assert_usage_failure(&out, "at most 16383");
+    assert!(!d.join("o").exists(), "a refused conversion made its output folder");
+}

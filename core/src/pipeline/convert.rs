@@ -9,7 +9,7 @@ use rayon::prelude::*;
 use super::PipelineError;
 use super::context::{RunContext, RunPaths, check_paths, tile_bytes};
 use super::naming::SheetNaming;
-use crate::model::ImageSource;
+use crate::model::{ImageSource, Model};
 use crate::texture::encode::{EncodeOptions, write_image};
 use crate::texture::{ImageFormat, TileStore, decode};
 use crate::warnings::{Warning, check_strict};
@@ -39,6 +39,25 @@ pub struct ConvertReport {
     pub write_seconds: f64,
     /// What the reader found that degrades the model (see `warnings`).
     pub warnings: Vec<Warning>,
+}
+
+/// Refuses, before any work, a sheet larger than its output format can hold (WebP, JPEG).
+fn check_format_sides(model: &Model, format: Option<ImageFormat>) -> Result<(), PipelineError> {
+    for sheet in &model.sheets {
+        let Some((w, h)) = sheet.size else { continue };
+        let f = match format {
+            Some(f) => f,
+            None => ImageFormat::of_source(&sheet.image)?,
+        };
+        if let Some(limit) = f.max_side().filter(|&l| w.max(h) > l) {
+            return Err(PipelineError::Usage(format!(
+                "a {w}x{h} sheet does not fit {} (at most {limit} pixels a side): choose another \
+                 --texture-format",
+                f.extension().to_uppercase()
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// Writes `sheets` where `naming` puts them for `output` in `enc`'s format, one encoder per
@@ -80,6 +99,7 @@ pub fn convert(
     let read_seconds = t0.elapsed().as_secs_f64();
     check_strict(opts.strict, &model.warnings)?;
     crate::io::check_output(&model, output)?;
+    check_format_sides(&model, opts.texture_format)?;
     let ctx = RunContext::open(&paths, Some(&model))?;
     let tiles = model.sheets.iter().filter_map(|s| s.size).map(|(w, h)| tile_bytes(w, h, 4)).max();
     ctx.check_space(tiles.unwrap_or(0), input_bytes(ctx.protected()))?;
