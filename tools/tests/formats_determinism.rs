@@ -6,29 +6,10 @@ use std::path::Path;
 use std::process::Output;
 
 mod common;
-use common::scanatlas;
+use common::{scanatlas, snapshot as files};
 
 fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-/// Every file under `dir` (relative name, bytes), sorted.
-fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap().flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                let name = p.strip_prefix(dir).unwrap().to_string_lossy().into_owned();
-                out.push((name, std::fs::read(&p).unwrap()));
-            }
-        }
-    }
-    out.sort();
-    out
 }
 
 #[test]
@@ -53,14 +34,15 @@ fn every_format_gives_the_same_bytes_for_every_thread_count() {
             assert!(out.status.success(), "{model}/{texture} --threads {n}: {}", stderr(&out));
             outputs.push(files(&d.join(folder)));
         }
-        let names: Vec<&str> = outputs[0].iter().map(|(n, _)| n.as_str()).collect();
+        let names: Vec<&Path> = outputs[0].iter().map(|(n, _)| n.as_path()).collect();
         assert!(names.len() >= 2, "{model}/{texture}: only {names:?}");
         for (k, other) in outputs.iter().enumerate().skip(1) {
             for ((name, a), (other_name, b)) in outputs[0].iter().zip(other) {
                 assert_eq!(name, other_name, "{model}/{texture}: different files");
                 assert!(
                     a == b,
-                    "{model}/{texture}: {name} differs between 1 and {} threads",
+                    "{model}/{texture}: {} differs between 1 and {} threads",
+                    name.display(),
                     k + 1
                 );
             }
@@ -83,7 +65,8 @@ fn merge_only_merges_onto_the_input_sheets_and_writes_no_texture() {
     let (before, after) = (&report["merge"]["charts_before"], &report["merge"]["charts_after"]);
     assert!(after.as_u64().unwrap() < before.as_u64().unwrap(), "{before} → {after}");
     // No texture is written: the output's material reads the input's sheet.
-    let written: Vec<String> = files(&d.join("m")).into_iter().map(|(n, _)| n).collect();
+    let written: Vec<String> =
+        files(&d.join("m")).into_iter().map(|(n, _)| n.to_string_lossy().into_owned()).collect();
     assert_eq!(written, ["out.mtl", "out.obj"]);
     let mtl = std::fs::read_to_string(d.join("m/out.mtl")).unwrap();
     assert!(mtl.contains("../s/sheet_0.png"), "{mtl}");

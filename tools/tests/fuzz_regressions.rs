@@ -9,8 +9,11 @@ mod common;
 #[path = "../../fuzz/fuzz_targets/config_input.rs"]
 mod config_input;
 
+/// The code a fuzz target runs on one input.
+type Target = fn(&[u8]);
+
 /// Each fuzz target by name, with the code it runs on one input.
-const TARGETS: [(&str, fn(&[u8])); 7] = [
+const TARGETS: [(&str, Target); 7] = [
     ("obj", common::obj),
     ("ply", common::ply),
     ("gltf", common::gltf),
