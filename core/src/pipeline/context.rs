@@ -49,10 +49,7 @@ fn usage(msg: String) -> PipelineError {
 /// Whether `path` names one of `list`: the same file on disk (through links and `..`), or,
 /// for paths in folders that do not exist yet, the same path spelled differently.
 fn is_one_of(path: &Path, list: &[PathBuf]) -> bool {
-    let lexical = |p: &Path| match std::env::current_dir() {
-        Ok(cwd) => crate::io::paths::normalize(&cwd.join(p)),
-        Err(_) => crate::io::paths::normalize(p),
-    };
+    use crate::io::paths::lexical;
     is_protected(path, list) || list.iter().any(|q| lexical(q) == lexical(path))
 }
 

@@ -78,10 +78,11 @@ impl SheetNaming {
 
 /// The folder below `model`'s own that holds every one of `files`, if there is one.
 fn common_subfolder(model: &Path, files: &[&Path]) -> Option<PathBuf> {
+    use crate::io::paths::{lexical, parent_dir};
     use std::path::Component;
-    let base = normalize(&crate::io::paths::parent_dir(model));
+    let base = lexical(&parent_dir(model));
     let sub_of = |f: &Path| -> Option<PathBuf> {
-        let folder = normalize(&crate::io::paths::parent_dir(f));
+        let folder = lexical(&parent_dir(f));
         let rel = folder.strip_prefix(&base).ok()?.to_path_buf();
         let below = rel.components().count() > 0
             && rel.components().all(|c| matches!(c, Component::Normal(_)));
@@ -89,14 +90,6 @@ fn common_subfolder(model: &Path, files: &[&Path]) -> Option<PathBuf> {
     };
     let first = sub_of(files[0])?;
     files[1..].iter().all(|f| sub_of(f).as_ref() == Some(&first)).then_some(first)
-}
-
-/// `path` made absolute (from the working folder) without `.` and `..`.
-fn normalize(path: &Path) -> PathBuf {
-    match std::env::current_dir() {
-        Ok(cwd) => crate::io::paths::normalize(&cwd.join(path)),
-        Err(_) => crate::io::paths::normalize(path),
-    }
 }
 
 /// The UDIM tile a file's stem ends with (`_1001` or `.1001`), if any.
