@@ -169,18 +169,25 @@ impl Staging {
         }
     }
 
-    /// The files of the set, by name, the model last.
-    fn files(&self) -> Result<Vec<OsString>, OutputError> {
+    /// The files of the set, by path relative to the staging folder (sheets may sit in a
+    /// subfolder such as a glTF's `textures/`), the model last.
+    fn files(&self) -> Result<Vec<PathBuf>, OutputError> {
         let mut names = Vec::new();
-        for entry in fs::read_dir(&self.dir).map_err(file_err(&self.dir))? {
-            let entry = entry.map_err(file_err(&self.dir))?;
-            let name = entry.file_name();
-            if name != JOURNAL && name != self.model {
-                names.push(name);
+        let mut folders = vec![PathBuf::new()];
+        while let Some(rel) = folders.pop() {
+            let dir = self.dir.join(&rel);
+            for entry in fs::read_dir(&dir).map_err(file_err(&dir))? {
+                let entry = entry.map_err(file_err(&dir))?;
+                let name = rel.join(entry.file_name());
+                if entry.file_type().map_err(file_err(&dir))?.is_dir() {
+                    folders.push(name);
+                } else if name.as_os_str() != JOURNAL && name.as_os_str() != self.model {
+                    names.push(name);
+                }
             }
         }
         names.sort();
-        names.push(self.model.clone());
+        names.push(PathBuf::from(&self.model));
         Ok(names)
     }
 
@@ -201,7 +208,7 @@ impl Staging {
         sync_dir(&self.dir);
         for (name, target) in names.iter().zip(&finals) {
             let from = self.dir.join(name);
-            fs::rename(&from, target).map_err(file_err(target))?;
+            move_into_place(&from, target)?;
         }
         sync_dir(&self.dest);
         self.done = true;
@@ -245,7 +252,7 @@ pub fn clean_stale(output: &Path) -> Result<Vec<PathBuf>, OutputError> {
             for file in list.lines().filter(|l| !l.is_empty()) {
                 let from = dir.join(file);
                 if from.exists() {
-                    fs::rename(&from, dest.join(file)).map_err(file_err(&from))?;
+                    move_into_place(&from, &dest.join(file))?;
                 }
             }
             sync_dir(&dest);
@@ -254,6 +261,15 @@ pub fn clean_stale(output: &Path) -> Result<Vec<PathBuf>, OutputError> {
         handled.push(dir);
     }
     Ok(handled)
+}
+
+/// Renames `from` to `target`, creating `target`'s folder first (a sheet subfolder of the
+/// destination may not exist yet).
+fn move_into_place(from: &Path, target: &Path) -> Result<(), OutputError> {
+    if let Some(folder) = target.parent() {
+        fs::create_dir_all(folder).map_err(file_err(folder))?;
+    }
+    fs::rename(from, target).map_err(file_err(target))
 }
 
 /// Free bytes for an unprivileged user on the file system of `dir`, with its device id.

@@ -1,5 +1,6 @@
-//! What every fuzz target shares: a private scratch folder per process, and the split of one
-//! fuzz input into the several files a format spreads over.
+//! What every fuzz target shares: a private scratch folder per process, the split of one fuzz
+//! input into the several files a format spreads over, and the body of each reader's target (so
+//! that `tools/tests/fuzz_regressions.rs` replays kept inputs through the very same code).
 
 #![allow(dead_code)]
 
@@ -61,4 +62,65 @@ pub fn load(path: &Path) {
             &scanatlas_core::metrics::StatsOptions { overlaps: false },
         );
     }
+}
+
+/// The `obj` target: `scan.obj`, then its MTL `scan.mtl`, then a texture `t.png`.
+pub fn obj(data: &[u8]) {
+    let parts = split(data, 3);
+    put("t.png", parts[2]);
+    put("scan.mtl", parts[1]);
+    load(&put("scan.obj", parts[0]));
+}
+
+/// The `ply` target: an ASCII or binary PLY, then a texture `t.png`.
+pub fn ply(data: &[u8]) {
+    let parts = split(data, 2);
+    put("t.png", parts[1]);
+    load(&put("m.ply", parts[0]));
+}
+
+/// The `gltf` target: a `.gltf` JSON or a GLB, then an external buffer `b.bin`, then an image.
+pub fn gltf(data: &[u8]) {
+    let parts = split(data, 3);
+    put("b.bin", parts[1]);
+    put("t.png", parts[2]);
+    load(&put("m.gltf", parts[0]));
+}
+
+/// The `image` target: a PNG, JPEG, TIFF, OpenEXR or WebP file, probed then decoded.
+pub fn image(data: &[u8]) {
+    use scanatlas_core::model::ImageSource;
+    use scanatlas_core::texture::decode::{decode_to_store, probe_size};
+    let src = ImageSource::Embedded {
+        name: "fuzz".into(),
+        mime: String::new(),
+        bytes: std::sync::Arc::new(data.to_vec()),
+    };
+    if probe_size(&src).is_ok() {
+        let _ = decode_to_store(&src, scratch());
+    }
+}
+
+/// The `colmap` target: first byte even, COLMAP text; odd, binary; then the cameras, images and
+/// points files.
+pub fn colmap(data: &[u8]) {
+    use scanatlas_core::photo_atlas::colmap::{read_binary, read_text};
+    let Some((&kind, rest)) = data.split_first() else { return };
+    let parts = split(rest, 3);
+    let binary = kind % 2 == 1;
+    let dir = if binary { "bin" } else { "txt" };
+    for (name, bytes) in ["cameras", "images", "points3D"].iter().zip(&parts) {
+        put(&format!("{dir}/{name}.{dir}"), bytes);
+    }
+    let dir = scratch().join(dir);
+    let _ = if binary { read_binary(&dir) } else { read_text(&dir) };
+}
+
+/// The `bundler` target: `bundle.out`, then `list.txt` (the photo folder holds one 1×1 PNG).
+pub fn bundler(data: &[u8]) {
+    let parts = split(data, 2);
+    put("photos/p.png", include_bytes!("../assets/1x1.png"));
+    put("bundler/list.txt", parts[1]);
+    let bundle = put("bundler/bundle.out", parts[0]);
+    let _ = scanatlas_core::photo_atlas::bundler::read(&bundle, &scratch().join("photos"));
 }

@@ -6,10 +6,4 @@
 #[path = "common.rs"]
 mod common;
 
-libfuzzer_sys::fuzz_target!(|data: &[u8]| {
-    let parts = common::split(data, 3);
-    common::put("b.bin", parts[1]);
-    common::put("t.png", parts[2]);
-    let gltf = common::put("m.gltf", parts[0]);
-    common::load(&gltf);
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| common::gltf(data));

@@ -5,9 +5,4 @@
 #[path = "common.rs"]
 mod common;
 
-libfuzzer_sys::fuzz_target!(|data: &[u8]| {
-    let parts = common::split(data, 2);
-    common::put("t.png", parts[1]);
-    let ply = common::put("m.ply", parts[0]);
-    common::load(&ply);
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| common::ply(data));

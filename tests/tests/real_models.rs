@@ -352,3 +352,36 @@ fn real_models_defragment_without_new_flips_degenerate_faces_or_texel_overlaps()
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// Fixed power-of-two sheets (`--sheet-size 2048 --pow2`) on meshroom and the plane: every
+/// output sheet is 2048², every face is kept, and the independent evaluator finds no new flip,
+/// degenerate face or texel overlap.
+#[test]
+fn fixed_power_of_two_sheets_are_valid_on_meshroom_and_the_plane() {
+    let mut reg = scanatlas_core::plugin::Registry::default();
+    scanatlas_plugins::register_builtin(&mut reg);
+    let data = real_data();
+    let dir = tempfile::tempdir().unwrap();
+    for (i, rel) in [MODELS[1], MODELS[2]].into_iter().enumerate() {
+        let input = data.join(rel);
+        let ext = input.extension().and_then(|e| e.to_str()).unwrap_or("obj");
+        let output = dir.path().join(format!("fixed{i}.{ext}"));
+        let mut cfg = pipeline::defrag::DefragConfig::default();
+        cfg.pack.sheet_size = Some((2048, 2048));
+        cfg.pack.pow2 = true;
+        let report = pipeline::defrag::defrag(&input, &output, &reg, &cfg)
+            .unwrap_or_else(|e| panic!("{rel}: {e}"));
+        let sizes: Vec<_> =
+            report.output_stats.texture_sizes.iter().map(|s| (s.width, s.height)).collect();
+        let fixed = (Some(2048), Some(2048));
+        assert!(!sizes.is_empty() && sizes.iter().all(|&s| s == fixed), "{rel}: {sizes:?}");
+        let v = evaluator_comparison(&input, &output);
+        let c = &v["comparison"];
+        println!("{rel}: {} sheets of 2048², evaluator {c}", sizes.len());
+        assert_eq!(v["input"]["faces"], v["output"]["faces"], "{rel}: lost faces");
+        assert_eq!(v["output"]["faces_without_uv"], 0, "{rel}");
+        assert_eq!(c["new_flipped_faces"], 0, "{rel}: new flips");
+        assert_eq!(c["new_degenerate_faces"], 0, "{rel}: new degenerate faces");
+        assert_eq!(c["overlap"]["new_overlap_face_pairs"], 0, "{rel}: new overlaps");
+    }
+}

@@ -545,3 +545,50 @@ fn webp_sheets_are_written_read_and_referenced_through_the_gltf_extension() {
     let out = scanatlas(&["convert", "l/q.gltf", "-o", "p/q.obj", "--texture-format", "png"], d);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
 }
+
+/// `scanatlas stats --json | head -0`: a reader that stops reading ends the output quietly, as
+/// with any Unix filter, instead of a panic on the broken pipe.
+#[test]
+fn a_closed_stdout_pipe_is_not_a_panic() {
+    use std::process::{Command, Stdio};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = scanatlas(&["synth", "s", "--faces", "2000", "--sheet-size", "256", "-q"], d);
+    assert!(out.status.success());
+    for args in [&["stats", "s/scan.obj", "--json"][..], &["stats", "s/scan.obj"], &["plugins"]] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_scanatlas"))
+            .args(args)
+            .current_dir(d)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Closed before the command has written anything.
+        drop(child.stdout.take());
+        let out = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert!(out.status.success(), "{args:?}: {:?} {err}", out.status);
+    }
+}
+
+/// A sheet wider than WebP allows is refused by `convert` before any work, not by the encoder
+/// after the other sheets are written.
+#[test]
+fn convert_refuses_a_sheet_too_wide_for_webp_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut png = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut png, 16384, 1);
+        enc.set_color(png::ColorType::Rgb);
+        let mut w = enc.write_header().unwrap();
+        w.write_image_data(&vec![128; 16384 * 3]).unwrap();
+    }
+    write(d, "wide.png", &png);
+    write(d, "m.mtl", b"newmtl a\nmap_Kd wide.png\n");
+    write(d, "m.obj", QUAD_OBJ.as_bytes());
+    let out = scanatlas(&["convert", "m.obj", "-o", "o/m.obj", "--texture-format", "webp"], d);
+    assert_usage_failure(&out, "at most 16383");
+    assert!(!d.join("o").exists(), "a refused conversion made its output folder");
+}

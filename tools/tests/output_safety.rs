@@ -6,6 +6,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+mod common;
+use common::snapshot;
+
 fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_scanatlas"));
     c.env_remove("SCANATLAS_LOG");
@@ -37,24 +40,6 @@ fn synth(dir: &Path, name: &str, faces: &str, sheet: &str, format: &str) -> Path
     );
     assert!(out.status.success(), "{}", stderr(&out));
     dir.join(name)
-}
-
-/// Every file under `dir` with its bytes, sorted by path.
-fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap().flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                out.push((p.clone(), std::fs::read(&p).unwrap()));
-            }
-        }
-    }
-    out.sort();
-    out
 }
 
 fn names(dir: &Path) -> Vec<String> {
@@ -97,7 +82,7 @@ fn the_report_never_overwrites_an_input_or_an_output() {
     assert_eq!(report["status"], "completed");
     assert_eq!(
         std::fs::read(r.join("scan.obj")).unwrap(),
-        before_file(&before, &r.join("scan.obj"))
+        before_file(&before, Path::new("r/scan.obj"))
     );
     let _ = g;
 }
@@ -350,4 +335,54 @@ fn a_full_work_disk_is_a_message_not_a_signal() {
     assert!(left.is_empty(), "files left in the full work folder: {left:?}");
     let stray: Vec<String> = names(&d.join("o"));
     assert!(stray.is_empty(), "files left in the output folder: {stray:?}");
+}
+
+/// Starts a build from the rig in `cwd/rig` into `output`, with a report.
+fn spawn_build(cwd: &Path, output: &str, report: &str) -> Child {
+    let args = ["build", "--mesh", "rig/mesh.obj", "--cameras", "rig/sparse", "--images"];
+    bin()
+        .args(args)
+        .args(["rig/images", "-o", output, "--report", report, "-q"])
+        .current_dir(cwd)
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+#[test]
+fn build_takes_the_lock_and_a_signal_leaves_no_stray_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = scanatlas(&["synth-rig", "rig", "--faces", "20000", "--photos", "8", "-q"], d);
+    assert!(out.status.success(), "{}", stderr(&out));
+
+    // A second build on the same output fails at once, naming the first.
+    let mut first = spawn_build(d, "b/o.obj", "b.json");
+    wait_for(&d.join("b/.o.obj.lock"), &mut first);
+    let base = ["build", "--mesh", "rig/mesh.obj", "--cameras", "rig/sparse", "--images"];
+    let second = scanatlas(&[&base[..], &["rig/images", "-o", "b/o.obj", "-q"]].concat(), d);
+    assert!(first.try_wait().unwrap().is_none(), "the first build ended too soon; make it longer");
+    assert_refused(&second, 1, &format!("in use by pid {}", first.id()));
+    assert!(first.wait().unwrap().success());
+    assert_nothing_or_complete(d, "b");
+    let stray: Vec<String> =
+        names(&d.join("b")).into_iter().filter(|n| n.starts_with('.')).collect();
+    assert!(stray.is_empty(), "a whole build left {stray:?}");
+
+    // SIGTERM once the lock is taken: exit 143, an "interrupted" report, and the output folder
+    // holds nothing of the run (or, had it ended first, the whole set).
+    let mut child = spawn_build(d, "t/o.obj", "t.json");
+    wait_for(&d.join("t/.o.obj.lock"), &mut child);
+    signal(&child, "-TERM");
+    let status = child.wait().unwrap();
+    if status.code() != Some(0) {
+        assert_eq!(status.code(), Some(143), "exit status after SIGTERM");
+        let r: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join("t.json")).unwrap()).unwrap();
+        assert_eq!(r["status"], "interrupted");
+    }
+    assert_nothing_or_complete(d, "t");
+    let stray: Vec<String> =
+        names(&d.join("t")).into_iter().filter(|n| n.starts_with('.')).collect();
+    assert!(stray.is_empty(), "stray files after SIGTERM: {stray:?}");
 }

@@ -155,7 +155,7 @@ fn impossible_sizes_are_refused_as_bad_usage_before_any_work() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     synth(d);
-    let cases: [(&[&str], &str); 9] = [
+    let cases: [(&[&str], &str); 11] = [
         (&["--sheet-size", "1000", "--pow2"], "try 1024x1024"),
         (&["--sheet-size", "100", "--align", "16"], "--align 16"),
         (&["--pow2", "--align", "12"], "--align 12"),
@@ -165,6 +165,8 @@ fn impossible_sizes_are_refused_as_bad_usage_before_any_work() {
         (&["--texel-scale", "NaN"], "--texel-scale"),
         (&["--max-sheet-size", "10", "--align", "16"], "--max-sheet-size"),
         (&["--sheet-size", "128", "--max-sheet-size", "256"], "--max-sheet-size"),
+        (&["--sheet-size", "16384", "--texture-format", "webp"], "at most 16383"),
+        (&["--max-sheet-size", "20000", "--texture-format", "webp-lossy"], "at most 16383"),
     ];
     for (extra, needle) in cases {
         let args = [&["defrag", "s/scan.obj", "-o", "x/out.obj"][..], extra].concat();

@@ -129,6 +129,12 @@ fn absolute(path: &Path) -> Option<PathBuf> {
     }
 }
 
+/// [`absolute`], or just [`normalize`] when the current directory is unknown: the lexical form
+/// to compare paths by when the files may not exist yet.
+pub(crate) fn lexical(path: &Path) -> PathBuf {
+    absolute(path).unwrap_or_else(|| normalize(path))
+}
+
 /// `target` written relative to the directory `base` with `/` separators, or `None` when they
 /// share nothing but the root (or not even that: another drive on Windows).
 pub(crate) fn relative_path(target: &Path, base: &Path) -> Option<String> {

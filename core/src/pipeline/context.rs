@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use super::PipelineError;
+use super::naming::SheetNaming;
 use crate::atomic::is_protected;
 use crate::io::paths::parent_dir;
 use crate::io::{Relocation, WriteOptions};
@@ -35,6 +36,7 @@ pub struct RunContext {
     work_dir: PathBuf,
     report: Option<PathBuf>,
     protect: Vec<PathBuf>,
+    sheet_naming: SheetNaming,
     // Declared before the lock, so the staging folder goes before the lock is released.
     staging: Staging,
     _lock: OutputLock,
@@ -47,10 +49,7 @@ fn usage(msg: String) -> PipelineError {
 /// Whether `path` names one of `list`: the same file on disk (through links and `..`), or,
 /// for paths in folders that do not exist yet, the same path spelled differently.
 fn is_one_of(path: &Path, list: &[PathBuf]) -> bool {
-    let lexical = |p: &Path| match std::env::current_dir() {
-        Ok(cwd) => crate::io::paths::normalize(&cwd.join(p)),
-        Err(_) => crate::io::paths::normalize(p),
-    };
+    use crate::io::paths::lexical;
     is_protected(path, list) || list.iter().any(|q| lexical(q) == lexical(path))
 }
 
@@ -180,6 +179,7 @@ impl RunContext {
             work_dir,
             report: paths.report.map(Path::to_path_buf),
             protect,
+            sheet_naming: model.map(SheetNaming::of_model).unwrap_or_default(),
             staging,
             _lock: lock,
         })
@@ -205,6 +205,12 @@ impl RunContext {
     /// The output's folder.
     pub fn out_dir(&self) -> &Path {
         &self.out_dir
+    }
+
+    /// Where the output's sheet files go and how they are numbered, after the input model's
+    /// (see [`SheetNaming::of_model`]).
+    pub fn sheet_naming(&self) -> &SheetNaming {
+        &self.sheet_naming
     }
 
     /// The folder of the temporary tile files.

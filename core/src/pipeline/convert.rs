@@ -8,7 +8,8 @@ use rayon::prelude::*;
 
 use super::PipelineError;
 use super::context::{RunContext, RunPaths, check_paths, tile_bytes};
-use crate::model::ImageSource;
+use super::naming::SheetNaming;
+use crate::model::{ImageSource, Model};
 use crate::texture::encode::{EncodeOptions, write_image};
 use crate::texture::{ImageFormat, TileStore, decode};
 use crate::warnings::{Warning, check_strict};
@@ -40,26 +41,41 @@ pub struct ConvertReport {
     pub warnings: Vec<Warning>,
 }
 
-/// The file name of output sheet `k` of a model written to `output`.
-pub fn output_sheet_path(output: &Path, k: usize, format: ImageFormat) -> PathBuf {
-    let stem = output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    output.with_file_name(format!("{stem}_{k}.{}", format.extension()))
+/// Refuses, before any work, a sheet larger than its output format can hold (WebP, JPEG).
+fn check_format_sides(model: &Model, format: Option<ImageFormat>) -> Result<(), PipelineError> {
+    for sheet in &model.sheets {
+        let Some((w, h)) = sheet.size else { continue };
+        let f = match format {
+            Some(f) => f,
+            None => ImageFormat::of_source(&sheet.image)?,
+        };
+        if let Some(limit) = f.max_side().filter(|&l| w.max(h) > l) {
+            return Err(PipelineError::Usage(format!(
+                "a {w}x{h} sheet does not fit {} (at most {limit} pixels a side): choose another \
+                 --texture-format",
+                f.extension().to_uppercase()
+            )));
+        }
+    }
+    Ok(())
 }
 
-/// Writes `sheets` beside `output` (see [`output_sheet_path`]) in `enc`'s format, one encoder per
+/// Writes `sheets` where `naming` puts them for `output` in `enc`'s format, one encoder per
 /// sheet side by side: each encoder is single-threaded, and a sheet's file depends on nothing
 /// but its own texels, so the bytes are the same in any order. Returns the paths in sheet order.
 pub(super) fn write_sheets(
     sheets: &[TileStore],
     output: &Path,
+    naming: &SheetNaming,
     format: ImageFormat,
     enc: &EncodeOptions,
 ) -> Result<Vec<PathBuf>, PipelineError> {
+    naming.create_folder(output)?;
     let paths = sheets
         .par_iter()
         .enumerate()
         .map(|(k, store)| {
-            let path = output_sheet_path(output, k, format);
+            let path = naming.sheet_path(output, k, format);
             write_image(store, &path, enc).map(|()| path)
         })
         .collect::<Result<Vec<PathBuf>, _>>()?;
@@ -83,12 +99,14 @@ pub fn convert(
     let read_seconds = t0.elapsed().as_secs_f64();
     check_strict(opts.strict, &model.warnings)?;
     crate::io::check_output(&model, output)?;
+    check_format_sides(&model, opts.texture_format)?;
     let ctx = RunContext::open(&paths, Some(&model))?;
     let tiles = model.sheets.iter().filter_map(|s| s.size).map(|(w, h)| tile_bytes(w, h, 4)).max();
     ctx.check_space(tiles.unwrap_or(0), input_bytes(ctx.protected()))?;
 
     let t1 = Instant::now();
     let staged = ctx.staged_output();
+    ctx.sheet_naming().create_folder(&staged)?;
     let mut written = Vec::with_capacity(model.sheets.len());
     for (k, sheet) in model.sheets.iter_mut().enumerate() {
         ctx.checkpoint()?;
@@ -97,7 +115,7 @@ pub fn convert(
             Some(f) => f,
             None => ImageFormat::of_source(&sheet.image)?,
         };
-        let path = output_sheet_path(&staged, k, format);
+        let path = ctx.sheet_naming().sheet_path(&staged, k, format);
         let enc = EncodeOptions {
             format: Some(format),
             jpeg_quality: opts.jpeg_quality,

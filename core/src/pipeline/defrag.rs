@@ -300,7 +300,7 @@ pub fn defrag_with_progress(
     }
     let model = Arc::new(model);
     crate::warnings::check_strict(cfg.strict, &model.warnings)?;
-    check_pack_options(&cfg.pack, &model)?;
+    check_pack_options(&cfg.pack, &model, output_format(cfg, &model)?)?;
     let ctx = RunContext::open(&paths, Some(&model))?;
     let mut loaded = start_background(model, cfg, &ctx)?;
     times.load_ms = ms(t);
@@ -433,7 +433,11 @@ pub const MAX_SHEET_SIDE: u32 = 65_536;
 pub const MAX_PADDING: u32 = 4096;
 
 /// Refuses packing options no sheet can honour, before any work.
-fn check_pack_options(pack: &PackOptions, model: &Model) -> Result<(), PipelineError> {
+fn check_pack_options(
+    pack: &PackOptions,
+    model: &Model,
+    format: ImageFormat,
+) -> Result<(), PipelineError> {
     for (flag, size) in
         [("--max-sheet-size", pack.max_sheet_size), ("--sheet-size", pack.sheet_size)]
     {
@@ -454,6 +458,17 @@ fn check_pack_options(pack: &PackOptions, model: &Model) -> Result<(), PipelineE
     }
     let sizes: Vec<(u32, u32)> = model.sheets.iter().map(|s| s.size.unwrap_or((1, 1))).collect();
     let (w, h) = max_sheet_size(pack, &sizes);
+    // Found now rather than by the encoder after the whole run.
+    if let Some(limit) = format.max_side()
+        && w.max(h) > limit
+    {
+        return Err(PipelineError::Usage(format!(
+            "output sheets may reach {w}x{h} pixels, but {} sheets hold at most {limit} a side: \
+             set --max-sheet-size {limit} (or a --sheet-size within it) or choose another \
+             --texture-format",
+            format.extension().to_uppercase()
+        )));
+    }
     if !sizes.is_empty() && 2 * u64::from(pack.padding) + 8 > u64::from(w.min(h)) {
         return Err(PipelineError::Usage(format!(
             "--padding {} leaves no room on a {w}x{h} sheet",

@@ -80,7 +80,13 @@ pub(super) fn synthesize(
         webp_quality: cfg.lossy_webp.then_some(cfg.jpeg_quality),
         protect: ctx.protected().to_vec(),
     };
-    let paths = super::convert::write_sheets(&out.sheets, &ctx.staged_output(), format, &enc)?;
+    let paths = super::convert::write_sheets(
+        &out.sheets,
+        &ctx.staged_output(),
+        ctx.sheet_naming(),
+        format,
+        &enc,
+    )?;
     out.report.ms_encode = ms(t);
     (out.report.ms_decode, out.report.ms_decode_wait) = (decoded.decode_ms, decoded.wait_ms);
     Ok((paths, Some(out.report)))

@@ -9,6 +9,7 @@ pub mod convert;
 mod decode_ahead;
 pub mod defrag;
 mod emit;
+pub mod naming;
 mod rigid_split;
 
 use std::path::{Path, PathBuf};
@@ -17,8 +18,8 @@ use crate::io::IoError;
 use crate::model::Model;
 use crate::texture::TextureError;
 
-/// Points `out` at the new atlas sheets (files beside the output model), one material
-/// `atlas{k}` per sheet.
+/// Points `out` at the new atlas sheets (files beside the output model), one material per
+/// sheet, named after the input's materials where they still fit (see [`naming`]).
 pub(crate) fn set_atlas_sheets(out: &mut Model, paths: &[PathBuf], sizes: &[(u32, u32)]) {
     use crate::model::{ImageSource, Material, Sheet};
     out.sheets = paths
@@ -26,9 +27,12 @@ pub(crate) fn set_atlas_sheets(out: &mut Model, paths: &[PathBuf], sizes: &[(u32
         .zip(sizes)
         .map(|(p, &size)| Sheet { image: ImageSource::File(p.clone()), size: Some(size) })
         .collect();
-    out.materials = (0..out.sheets.len())
-        .map(|k| Material {
-            name: format!("atlas{k}"),
+    let names = naming::material_names(&out.materials, out.sheets.len());
+    out.materials = names
+        .into_iter()
+        .enumerate()
+        .map(|(k, name)| Material {
+            name,
             sheet: Some(crate::SheetId::from_usize(k)),
             extra: Vec::new(),
         })

@@ -159,6 +159,15 @@ impl ImageFormat {
         })
     }
 
+    /// The longest side the format can hold, when it is shorter than any sheet may be.
+    pub fn max_side(self) -> Option<u32> {
+        match self {
+            Self::Webp => Some(codec::webp::MAX_SIDE),
+            Self::Jpeg => Some(u32::from(u16::MAX)),
+            Self::Png | Self::Tiff | Self::Exr => None,
+        }
+    }
+
     /// The canonical extension.
     pub fn extension(self) -> &'static str {
         match self {

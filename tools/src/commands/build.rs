@@ -47,13 +47,14 @@ pub fn run(args: &BuildArgs, quiet: bool, strict: bool) -> Result<()> {
     if let Some(old) = stage.take() {
         old.finish();
     }
-    let report = report.map_err(|e| super::defrag::usage_or_failure(e.into()))?;
-    tracing::info!("build finished in {:.1} s", report.times.total_ms / 1e3);
+    let result = report.map_err(|e| super::defrag::usage_or_failure(e.into()));
     if let Some(p) = &args.report {
-        let json = serde_json::to_string_pretty(&report)?;
+        let about = serde_json::json!({ "mesh": mesh, "cameras": cameras, "output": args.output });
         let protect = [args.mesh.clone(), args.cameras.clone(), args.output.clone()];
-        super::defrag::write_report(p, json.as_bytes(), &protect)?;
+        super::defrag::write_run_report(p, &result, about, &protect)?;
     }
+    let report = result?;
+    tracing::info!("build finished in {:.1} s", report.times.total_ms / 1e3);
     super::report_warnings(&report.warnings, strict)?;
     if let Some(dir) = &args.report_dir {
         let run = serde_json::to_value(&report)?;

@@ -57,6 +57,26 @@ pub fn write_report(
         .with_context(|| format!("writing the report {}", path.display()))
 }
 
+/// Writes the report of a run with how it ended: the whole report with `"status": "completed"`,
+/// or `about` with `"status": "interrupted"` when a signal stopped the run. A refused or failed
+/// run writes none, since a refused path may be the report's own.
+pub fn write_run_report<R: serde::Serialize>(
+    path: &std::path::Path,
+    result: &Result<R>,
+    mut about: serde_json::Value,
+    protect: &[std::path::PathBuf],
+) -> Result<()> {
+    let json = match result {
+        Ok(report) => serde_json::to_vec_pretty(&StatusReport { status: "completed", report })?,
+        Err(_) if scanatlas_core::cancel::requested() => {
+            about["status"] = "interrupted".into();
+            serde_json::to_vec_pretty(&about)?
+        }
+        Err(_) => return Ok(()),
+    };
+    write_report(path, &json, protect)
+}
+
 /// Runs the pipeline with one spinner per stage (none with `--quiet`).
 pub fn run_pipeline(
     input: &std::path::Path,
@@ -93,19 +113,8 @@ pub fn run(args: &DefragArgs, quiet: bool, strict: bool) -> Result<()> {
     check_paths(&paths).map_err(|e| super::UsageError(e.to_string()))?;
     let result = run_pipeline(&args.input, &args.output, &cfg, quiet).map_err(usage_or_failure);
     if let Some(path) = &args.report {
-        let status = match &result {
-            Ok(_) => "completed",
-            Err(_) if scanatlas_core::cancel::requested() => "interrupted",
-            // Refused or failed runs write no report: a refused path may be the report's.
-            Err(_) => return result.map(|_| ()),
-        };
-        let json = match &result {
-            Ok(report) => serde_json::to_vec_pretty(&StatusReport { status, report })?,
-            Err(_) => serde_json::to_vec_pretty(&serde_json::json!({
-                "status": status, "input": args.input, "output": args.output
-            }))?,
-        };
-        write_report(path, &json, &[args.input.clone(), args.output.clone()])?;
+        let about = serde_json::json!({ "input": args.input, "output": args.output });
+        write_run_report(path, &result, about, &[args.input.clone(), args.output.clone()])?;
     }
     let report = result?;
     tracing::info!("defrag finished in {:.1} s", report.times.total_ms / 1e3);

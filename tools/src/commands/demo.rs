@@ -1,6 +1,8 @@
 //! `scanatlas demo [OUT_DIR]`: the zero-input main command. Makes a small synthetic scan, runs the
 //! full defragmentation on it into the same folder and prints before/after figures.
 
+use std::fmt::Write;
+
 use anyhow::Result;
 use scanatlas_core::metrics::AtlasStats;
 use scanatlas_core::pipeline::defrag::DefragConfig;
@@ -30,34 +32,39 @@ pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
     let report =
         super::defrag::run_pipeline(&written.model, &output, &DefragConfig::default(), quiet)?;
     let (a, b): (&AtlasStats, &AtlasStats) = (&report.input_stats, &report.output_stats);
-    println!("scanatlas demo: a synthetic photogrammetry scan in {}", out_dir.display());
-    println!("  input  {}", written.model.display());
-    println!("  output {}", output.display());
-    println!("  {:<22} {:>12} {:>12}", "", "before", "after");
-    println!(
+    let mut text = String::new();
+    writeln!(text, "scanatlas demo: a synthetic photogrammetry scan in {}", out_dir.display())?;
+    writeln!(text, "  input  {}", written.model.display())?;
+    writeln!(text, "  output {}", output.display())?;
+    writeln!(text, "  {:<22} {:>12} {:>12}", "", "before", "after")?;
+    writeln!(
+        text,
         "  {:<22} {:>12} {:>12}",
         "charts with area", a.charts_edge_with_area, b.charts_edge_with_area
-    );
-    println!("  {:<22} {:>12} {:>12}", "point faces", a.point_faces, b.point_faces);
-    println!(
+    )?;
+    writeln!(text, "  {:<22} {:>12} {:>12}", "point faces", a.point_faces, b.point_faces)?;
+    writeln!(
+        text,
         "  {:<22} {:>12} {:>12}",
         "solidity",
         figure(a.atlas_solidity),
         figure(b.atlas_solidity)
-    );
-    println!("  {:<22} {:>12} {:>12}", "texels", a.total_texels, b.total_texels);
-    println!(
+    )?;
+    writeln!(text, "  {:<22} {:>12} {:>12}", "texels", a.total_texels, b.total_texels)?;
+    writeln!(
+        text,
         "  {:<22} {:>12} {:>12}",
         "vertex replication",
         figure(a.vertex_replication),
         figure(b.vertex_replication)
-    );
-    println!(
+    )?;
+    writeln!(
+        text,
         "  {:<22} {:>12} {:>12}",
         "grid-preserved area",
         "-",
         figure(report.pack.as_ref().map(|p| p.preserved_area_fraction))
-    );
-    println!("  defragmented in {:.1} s", report.times.total_ms / 1e3);
-    Ok(())
+    )?;
+    writeln!(text, "  defragmented in {:.1} s", report.times.total_ms / 1e3)?;
+    super::print_out(text)
 }

@@ -2,8 +2,6 @@
 //! every page written to a folder with `--out-dir` (for packagers: `scanatlas.1`,
 //! `scanatlas-defrag.1`, ...).
 
-use std::io::Write;
-
 use anyhow::{Context, Result};
 use clap::CommandFactory;
 
@@ -23,7 +21,7 @@ pub fn run(args: &ManArgs) -> Result<()> {
     };
     let mut buf = Vec::new();
     clap_mangen::Man::new(page).render(&mut buf).context("rendering the manual page")?;
-    std::io::stdout().lock().write_all(&buf).context("writing the manual page")?;
+    super::print_out(&buf)?;
     Ok(())
 }
 

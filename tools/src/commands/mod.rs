@@ -33,6 +33,17 @@ impl std::fmt::Display for UsageError {
 
 impl std::error::Error for UsageError {}
 
+/// Writes `text` to standard output. A reader that stopped reading (`scanatlas stats --json |
+/// head`) is not an error: the rest is simply not wanted, as with every Unix filter.
+pub fn print_out(text: impl AsRef<[u8]>) -> Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_ref()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => Ok(other.map_err(|e| anyhow::anyhow!("writing to standard output: {e}"))?),
+    }
+}
+
 /// Prints each warning as a `scanatlas: warning:` line on stderr (with `--quiet` too: warnings
 /// are what an unattended run must not hide) and, with `--strict`, fails when there is any.
 pub fn report_warnings(warnings: &[Warning], strict: bool) -> Result<()> {

@@ -1,6 +1,8 @@
 //! `scanatlas plugins`: every registered plugin with its kind, name, one-line summary and
 //! parameters with their defaults (as text, or as JSON with `--json`).
 
+use std::fmt::Write;
+
 use anyhow::Result;
 use scanatlas_core::plugin::ParamValue;
 
@@ -19,24 +21,27 @@ pub fn run(args: &PluginsArgs) -> Result<()> {
     let registry = super::defrag::builtin_registry();
     let infos = registry.infos();
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&infos)?);
-        return Ok(());
+        return super::print_out(serde_json::to_string_pretty(&infos)? + "\n");
     }
+    let mut text = String::new();
     for info in infos {
-        println!("{} {}: {}", info.kind, info.name, info.summary);
+        writeln!(text, "{} {}: {}", info.kind, info.name, info.summary)?;
         for p in &info.params {
-            println!("    {} = {}    {}", p.name, show(&p.default), p.help);
+            writeln!(text, "    {} = {}    {}", p.name, show(&p.default), p.help)?;
         }
     }
-    println!();
-    println!(
+    writeln!(text)?;
+    writeln!(
+        text,
         "Parameters go in a config file (`defrag --config FILE.toml`) as `[KIND.NAME]` tables,"
-    );
-    println!(
+    )?;
+    writeln!(
+        text,
         "e.g. `[solver.slim]` then `max-iterations = 20`; `--solver slim,arap` is a fallback chain,"
-    );
-    println!(
+    )?;
+    writeln!(
+        text,
         "and `--solver arap+slim` (the default) solves again with slim the refused merges of long seams."
-    );
-    Ok(())
+    )?;
+    super::print_out(text)
 }

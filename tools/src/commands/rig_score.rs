@@ -15,9 +15,10 @@ pub fn run(args: &RigScoreArgs) -> Result<()> {
     let score = score_files(&args.rig, &args.model, work.path())
         .with_context(|| format!("scoring {}", args.model.display()))?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&score).context("serializing the figures")?);
+        let json = serde_json::to_string_pretty(&score).context("serializing the figures")?;
+        super::print_out(json + "\n")?;
     } else {
-        print!("{}", human(&args.model.display().to_string(), &score));
+        super::print_out(human(&args.model.display().to_string(), &score))?;
     }
     Ok(())
 }

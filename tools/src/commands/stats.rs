@@ -15,9 +15,10 @@ pub fn run(args: &StatsArgs, strict: bool) -> Result<()> {
         &StatsOptions { overlaps: !args.no_overlaps },
     );
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&stats).context("serializing the figures")?);
+        let json = serde_json::to_string_pretty(&stats).context("serializing the figures")?;
+        super::print_out(json + "\n")?;
     } else {
-        print!("{}", human(&args.model.display().to_string(), &stats));
+        super::print_out(human(&args.model.display().to_string(), &stats))?;
     }
     Ok(())
 }

@@ -1,12 +1,12 @@
 //! The build's last stage: the output sheets and the output model, written beside each other.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use crate::index::{MaterialId, NONE, UvId};
-use crate::io::WriteOptions;
 use crate::model::{Model, Origin};
 use crate::pack::PackedLayout;
 use crate::pipeline::PipelineError;
+use crate::pipeline::context::RunContext;
 use crate::texture::TileStore;
 use crate::texture::coords::texel_to_uv;
 use crate::texture::encode::EncodeOptions;
@@ -14,28 +14,35 @@ use crate::texture::encode::EncodeOptions;
 use super::BuildConfig;
 use super::stages::{Parametrization, Scene};
 
-/// Writes the output sheets and the output model (never over the mesh or a photo) and returns
-/// the sheets' paths.
+/// Writes the output sheets and the output model into the run's staging folder (never over the
+/// mesh, the cameras or a photo), commits them as one set and returns the sheets' final paths.
 pub(super) fn emit(
     scene: &Scene,
     param: &Parametrization,
     packed: &PackedLayout,
     sheets: &[TileStore],
-    output: &Path,
+    ctx: RunContext,
     cfg: &BuildConfig,
 ) -> Result<Vec<PathBuf>, PipelineError> {
-    let protect = scene.inputs();
+    let staged = ctx.staged_output();
     let enc = EncodeOptions {
         format: Some(cfg.texture_format),
         jpeg_quality: 92,
         webp_quality: None,
-        protect: protect.clone(),
+        protect: ctx.protected().to_vec(),
     };
-    let sheet_paths =
-        crate::pipeline::convert::write_sheets(sheets, output, cfg.texture_format, &enc)?;
+    let sheet_paths = crate::pipeline::convert::write_sheets(
+        sheets,
+        &staged,
+        ctx.sheet_naming(),
+        cfg.texture_format,
+        &enc,
+    )?;
     let out_model = output_model(scene, param, packed, &sheet_paths);
-    crate::io::write_model(&out_model, output, &WriteOptions { protect, ..Default::default() })?;
-    Ok(sheet_paths)
+    crate::io::write_model(&out_model, &staged, &ctx.write_options())?;
+    let finals = sheet_paths.iter().map(|p| ctx.final_path(p)).collect();
+    ctx.commit()?;
+    Ok(finals)
 }
 
 /// The output model: input positions, normals and faces in input order; UVs from the packing.

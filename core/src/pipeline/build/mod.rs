@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use super::PipelineError;
-use super::context::create_run_dirs;
+use super::context::{RunContext, RunPaths, tile_bytes};
 use crate::pack::PackReport;
 use crate::photo_atlas::exposure::{Exposure, ExposureOptions};
 use crate::photo_atlas::frequency::FrequencyOptions;
@@ -237,6 +237,7 @@ pub fn build_with_progress(
 
     clock.start(BuildStage::Load);
     let loaded = stages::load(mesh, cameras, images, cfg.strict)?;
+    let ctx = open_run(&loaded, cameras, output, cfg)?;
     times.load_ms = clock.lap();
     clock.start(BuildStage::Visibility);
     let vis = stages::visibility(&loaded, cfg);
@@ -249,7 +250,7 @@ pub fn build_with_progress(
     times.partition_ms = clock.lap();
 
     clock.start(BuildStage::Decode);
-    let (_, work_dir) = create_run_dirs(output, cfg.work_dir.as_deref())?;
+    let work_dir = ctx.work_dir().to_path_buf();
     let mut photos = stages::decode_photos(&scene, &charts.part, &work_dir)?;
     times.decode_ms = clock.lap();
     clock.start(BuildStage::Exposure);
@@ -269,6 +270,8 @@ pub fn build_with_progress(
     times.parametrize_ms = clock.lap();
     clock.start(BuildStage::Pack);
     let packed = stages::pack(&scene, &plan, &param, packer.as_ref(), cfg)?;
+    let sheet_bytes = packed.sheet_sizes.iter().map(|&(w, h)| tile_bytes(w, h, 4)).sum::<u64>();
+    ctx.check_space(sheet_bytes, sheet_bytes)?;
     times.pack_ms = clock.lap();
 
     clock.start(BuildStage::Texture);
@@ -285,7 +288,8 @@ pub fn build_with_progress(
     times.gutter_ms = clock.lap();
 
     clock.start(BuildStage::Write);
-    let sheets = emit::emit(&scene, &param, &packed, &textured.output.sheets, output, cfg)?;
+    ctx.checkpoint()?;
+    let sheets = emit::emit(&scene, &param, &packed, &textured.output.sheets, ctx, cfg)?;
     times.write_ms = clock.lap();
 
     times.total_ms = ms(t_all);
@@ -302,6 +306,21 @@ pub fn build_with_progress(
         warnings,
     };
     Ok(report::report(&scene, [mesh, cameras, output], cfg, run, times))
+}
+
+/// Checks the output against every file the build reads (the mesh, the cameras, the photos),
+/// then creates the output and work folders and takes the output's lock (see [`RunContext`]).
+fn open_run(
+    loaded: &stages::Loaded,
+    cameras: &Path,
+    output: &Path,
+    cfg: &BuildConfig,
+) -> Result<RunContext, PipelineError> {
+    let mut inputs = vec![loaded.mesh.clone(), cameras.to_path_buf()];
+    inputs.extend(loaded.photo_paths.iter().cloned());
+    let paths =
+        RunPaths { inputs: &inputs, output, work_dir: cfg.work_dir.as_deref(), report: None };
+    RunContext::open(&paths, Some(&loaded.model))
 }
 
 /// Announces each stage and times it.

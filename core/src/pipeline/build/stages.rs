@@ -111,7 +111,6 @@ pub(super) fn visibility(loaded: &Loaded, cfg: &BuildConfig) -> Visibility {
 
 /// The mesh with what every later stage reads of it: visibility, face geometry and adjacency.
 pub(super) struct Scene {
-    pub mesh: PathBuf,
     pub model: Model,
     pub tris: Vec<[u32; 3]>,
     pub rig: Rig,
@@ -123,15 +122,10 @@ pub(super) struct Scene {
 
 impl Scene {
     pub fn new(loaded: Loaded, vis: Visibility) -> Self {
-        let Loaded { mesh, model, tris, rig, photo_paths, .. } = loaded;
+        let Loaded { model, tris, rig, photo_paths, .. } = loaded;
         let geom = FaceGeom::new(&model.positions, &tris);
         let adj = face_adjacency(&tris);
-        Self { mesh, model, tris, rig, photo_paths, vis, geom, adj }
-    }
-
-    /// The input files (the mesh, then the photos), which no output may overwrite.
-    pub fn inputs(&self) -> Vec<PathBuf> {
-        std::iter::once(self.mesh.clone()).chain(self.photo_paths.iter().cloned()).collect()
+        Self { model, tris, rig, photo_paths, vis, geom, adj }
     }
 
     pub fn positions(&self) -> &[[f64; 3]] {

@@ -169,9 +169,9 @@ pub fn table(s: &Summary) -> String {
 pub fn print(out_dir: &Path, json: bool) -> Result<bool> {
     let s = summarize(&log::read_all(out_dir)?);
     if json {
-        println!("{}", serde_json::to_string_pretty(&s)?);
+        crate::commands::print_out(serde_json::to_string_pretty(&s)? + "\n")?;
     } else {
-        print!("{}", table(&s));
+        crate::commands::print_out(table(&s))?;
     }
     Ok(s.models.iter().all(|r| matches!(r.status, Status::Ok | Status::Skipped)))
 }
