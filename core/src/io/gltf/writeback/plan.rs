@@ -54,7 +54,7 @@ pub(super) fn plan(
     sources: &[BufferData],
     path: &Path,
 ) -> Result<Option<Plan>, IoError> {
-    let Some((mut blocks, span_block)) = group_blocks(model, scene, sources)? else {
+    let Some(Grouping { mut blocks, span_block }) = group_blocks(model, scene, sources)? else {
         return Ok(None);
     };
     let mut spans: Vec<SpanPlan> = Vec::with_capacity(scene.primitives.len());
@@ -67,13 +67,19 @@ pub(super) fn plan(
     Ok(Some(Plan { blocks, spans, span_block }))
 }
 
+/// The vertex blocks and the block of every primitive span.
+struct Grouping {
+    blocks: Vec<BlockPlan>,
+    span_block: Vec<usize>,
+}
+
 /// Groups the primitive spans into vertex blocks and checks that positions and corners still
-/// match the document. Returns the blocks and the block of every span, or `None` on a mismatch.
+/// match the document; `None` on a mismatch.
 fn group_blocks(
     model: &Model,
     scene: &GltfScene,
     sources: &[BufferData],
-) -> Result<Option<(Vec<BlockPlan>, Vec<usize>)>, IoError> {
+) -> Result<Option<Grouping>, IoError> {
     let orig = &scene.document;
     let prim_json = |s: &PrimitiveSpan| -> Option<&Value> {
         orig.get("meshes")?.get(s.mesh as usize)?.get("primitives")?.get(s.primitive as usize)
@@ -103,7 +109,7 @@ fn group_blocks(
             return Ok(None);
         }
     }
-    Ok(Some((blocks, span_block)))
+    Ok(Some(Grouping { blocks, span_block }))
 }
 
 /// The block that starts at span `s`'s vertices, or `None` when its positions no longer match
