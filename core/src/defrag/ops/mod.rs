@@ -14,9 +14,8 @@ use crate::topology::charts::pair_corners;
 use crate::topology::{ChartId, OpKind};
 use table::CachedGeometry;
 
-/// The operation geometry in the current layout. The pairs are left in [`OpScratch::pairs`].
-///
-/// [`OpScratch::pairs`]: scratch::OpScratch
+/// The operation geometry in the current layout. The pairs are left in `pairing.pairs` (see
+/// `scratch::OpScratch`).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct OpGeometry {
     /// The chart that stays (more faces) and the chart that moves (equal for intra-chart).
