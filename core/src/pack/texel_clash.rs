@@ -511,19 +511,7 @@ pub(crate) fn separate(
     // faces it concerns. The fixed corners of both faces are freed instead (the centre may lie on
     // an edge the two faces share, which only its endpoints can move): the faces around them are
     // resampled, a few dozen faces.
-    let mut freed = Vec::new();
-    for &(f, g) in &pairs {
-        let mut corners = [chart.tri[f as usize], chart.tri[g as usize]].concat();
-        if corners.iter().any(|&v| free[v as usize]) {
-            continue;
-        }
-        corners.sort_unstable();
-        corners.dedup();
-        for v in corners {
-            free[v as usize] = true;
-            freed.push(v);
-        }
-    }
+    let freed = free_all_fixed_pairs(&chart, &pairs, &mut free);
     for &v in &freed {
         for &h in &chart.vf_items[chart.vf_start[v as usize]..chart.vf_start[v as usize + 1]] {
             chart.settled[h as usize] = false;
@@ -554,47 +542,7 @@ pub(crate) fn separate(
             if !chart.clash(f, g) {
                 continue;
             }
-            // The best single-vertex move among the corners of both faces: most pairs separated
-            // around the vertex, then most overlap removed, then the shortest step, then the
-            // first in a fixed order.
-            let mut best: Option<Move> = None;
-            let [a, b] = [chart.tri[f as usize], chart.tri[g as usize]];
-            let mut corners = [a[0], a[1], a[2], b[0], b[1], b[2]];
-            corners.sort_unstable();
-            for (i, &v) in corners.iter().enumerate() {
-                if (i > 0 && corners[i - 1] == v) || !free[v as usize] {
-                    continue;
-                }
-                let (n0, d0) = chart.clash_depth_around(v);
-                let home = chart.pos[v as usize];
-                let s0 = start.pos[v as usize];
-                let e0 = chart.patch_energy(v);
-                for d in &steps {
-                    let p = [home[0] + d[0], home[1] + d[1]];
-                    if (p[0] - s0[0]).hypot(p[1] - s0[1]) > MAX_SHIFT {
-                        continue;
-                    }
-                    chart.pos[v as usize] = p;
-                    if chart.faces_fit(v, &start, e0) {
-                        let (n1, d1) = chart.clash_depth_around(v);
-                        let gain = (n0.saturating_sub(n1), d0 - d1);
-                        let progress = n1 < n0 || (n1 == n0 && gain.1 >= MIN_DEPTH_GAIN);
-                        let len = d[0].hypot(d[1]);
-                        let better = progress
-                            && best.as_ref().is_none_or(|b| {
-                                gain.0 > b.gain.0
-                                    || (gain.0 == b.gain.0 && gain.1 > b.gain.1 + 1e-9)
-                                    || (gain.0 == b.gain.0
-                                        && (gain.1 - b.gain.1).abs() <= 1e-9
-                                        && len < b.len)
-                            });
-                        if better {
-                            best = Some(Move { gain, len, v, p });
-                        }
-                    }
-                    chart.pos[v as usize] = home;
-                }
-            }
+            let best = best_move(&mut chart, f, g, &free, &start, &steps);
             if let Some(Move { v, p, .. }) = best {
                 chart.pos[v as usize] = p;
                 moved = true;
@@ -617,6 +565,77 @@ pub(crate) fn separate(
         .collect();
     let freed = freed.into_iter().map(|v| verts[v as usize]).collect();
     ChartClashes { found, left, moves, freed }
+}
+
+/// Frees every corner of the pairs whose corners are all fixed (see `separate`), and returns
+/// the vertices freed.
+fn free_all_fixed_pairs(chart: &Chart<'_>, pairs: &[(u32, u32)], free: &mut [bool]) -> Vec<u32> {
+    let mut freed = Vec::new();
+    for &(f, g) in pairs {
+        let mut corners = [chart.tri[f as usize], chart.tri[g as usize]].concat();
+        if corners.iter().any(|&v| free[v as usize]) {
+            continue;
+        }
+        corners.sort_unstable();
+        corners.dedup();
+        for v in corners {
+            free[v as usize] = true;
+            freed.push(v);
+        }
+    }
+    freed
+}
+
+/// The best single-vertex move among the free corners of faces `f` and `g`: most pairs
+/// separated around the vertex, then most overlap removed, then the shortest step, then the first
+/// in a fixed order. `None` when no move makes progress.
+fn best_move(
+    chart: &mut Chart<'_>,
+    f: u32,
+    g: u32,
+    free: &[bool],
+    start: &Start,
+    steps: &[[f64; 2]],
+) -> Option<Move> {
+    let mut best: Option<Move> = None;
+    let [a, b] = [chart.tri[f as usize], chart.tri[g as usize]];
+    let mut corners = [a[0], a[1], a[2], b[0], b[1], b[2]];
+    corners.sort_unstable();
+    for (i, &v) in corners.iter().enumerate() {
+        if (i > 0 && corners[i - 1] == v) || !free[v as usize] {
+            continue;
+        }
+        let (n0, d0) = chart.clash_depth_around(v);
+        let home = chart.pos[v as usize];
+        let s0 = start.pos[v as usize];
+        let e0 = chart.patch_energy(v);
+        for d in steps {
+            let p = [home[0] + d[0], home[1] + d[1]];
+            if (p[0] - s0[0]).hypot(p[1] - s0[1]) > MAX_SHIFT {
+                continue;
+            }
+            chart.pos[v as usize] = p;
+            if chart.faces_fit(v, start, e0) {
+                let (n1, d1) = chart.clash_depth_around(v);
+                let gain = (n0.saturating_sub(n1), d0 - d1);
+                let progress = n1 < n0 || (n1 == n0 && gain.1 >= MIN_DEPTH_GAIN);
+                let len = d[0].hypot(d[1]);
+                let better = progress
+                    && best.as_ref().is_none_or(|b| {
+                        gain.0 > b.gain.0
+                            || (gain.0 == b.gain.0 && gain.1 > b.gain.1 + 1e-9)
+                            || (gain.0 == b.gain.0
+                                && (gain.1 - b.gain.1).abs() <= 1e-9
+                                && len < b.len)
+                    });
+                if better {
+                    best = Some(Move { gain, len, v, p });
+                }
+            }
+            chart.pos[v as usize] = home;
+        }
+    }
+    best
 }
 
 #[cfg(test)]

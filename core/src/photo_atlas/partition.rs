@@ -324,26 +324,7 @@ pub fn flood_partition<M: Metric + ?Sized>(adj: &[[u32; 3]], m: &M, max_rounds: 
         })
         .collect();
     // Chart adding, bootstrap: each label's cheapest allowed face.
-    let mut seed_cost: Vec<Option<(f64, u32)>> = vec![None; m.labels()];
-    for f in 0..nf {
-        for &c in m.allowed(f) {
-            let d = cost(f, c);
-            let s = &mut seed_cost[c as usize];
-            if s.is_none_or(|(e, _)| d < e) {
-                *s = Some((d, f as u32));
-            }
-        }
-    }
-    let mut seeds: Vec<(u32, u32)> = Vec::new();
-    let mut seeded = vec![false; nf];
-    for (c, s) in seed_cost.iter().enumerate() {
-        if let Some((_, f)) = *s
-            && !seeded[f as usize]
-        {
-            seeded[f as usize] = true;
-            seeds.push((f, c as u32));
-        }
-    }
+    let (mut seeds, mut seeded) = bootstrap_seeds(m, nf);
     let mut chart = grow(&seeds, adj, &sees, &cost);
     let mut rounds = 1;
     loop {
@@ -402,6 +383,45 @@ pub fn flood_partition<M: Metric + ?Sized>(adj: &[[u32; 3]], m: &M, max_rounds: 
         chart = grow(&seeds, adj, &sees, &cost);
         rounds += 1;
     }
+    merge_same_label(adj, m, &chart, &seeds, rounds)
+}
+
+/// The first seeds of the chart adding: each label's cheapest allowed face (a face that is the
+/// cheapest of several labels seeds only the first of them), and which faces are seeds.
+fn bootstrap_seeds<M: Metric + ?Sized>(m: &M, nf: usize) -> (Vec<(u32, u32)>, Vec<bool>) {
+    let mut seed_cost: Vec<Option<(f64, u32)>> = vec![None; m.labels()];
+    for f in 0..nf {
+        for &c in m.allowed(f) {
+            let d = m.cost(f, c);
+            let s = &mut seed_cost[c as usize];
+            if s.is_none_or(|(e, _)| d < e) {
+                *s = Some((d, f as u32));
+            }
+        }
+    }
+    let mut seeds: Vec<(u32, u32)> = Vec::new();
+    let mut seeded = vec![false; nf];
+    for (c, s) in seed_cost.iter().enumerate() {
+        if let Some((_, f)) = *s
+            && !seeded[f as usize]
+        {
+            seeded[f as usize] = true;
+            seeds.push((f, c as u32));
+        }
+    }
+    (seeds, seeded)
+}
+
+/// The partition from the grown charts: adjacent charts with the same label merged, dense chart
+/// ids in order of first face, and the total cost.
+fn merge_same_label<M: Metric + ?Sized>(
+    adj: &[[u32; 3]],
+    m: &M,
+    chart: &[u32],
+    seeds: &[(u32, u32)],
+    rounds: u32,
+) -> Flooded {
+    let nf = adj.len();
     // Charts that lost their seed to nothing cannot exist (a seed always takes its own face), so
     // every seed is a chart. Merge adjacent charts with the same label (union-find).
     let n = seeds.len();
@@ -441,7 +461,7 @@ pub fn flood_partition<M: Metric + ?Sized>(adj: &[[u32; 3]], m: &M, max_rounds: 
             chart_label.push(seeds[r].1);
         }
         face_chart[f] = dense[r];
-        total += cost(f, seeds[r].1);
+        total += m.cost(f, seeds[r].1);
     }
     Flooded { face_chart, chart_label, rounds, charts_before_merge: n, cost: total }
 }

@@ -258,7 +258,7 @@ pub fn place_seams(
     input: &SeamInput<'_>,
     opts: &SeamPlacementOptions,
 ) -> SeamPlacementReport {
-    let (tris, adj, positions) = (input.tris, input.adj, input.positions);
+    let (tris, positions) = (input.tris, input.positions);
     let nf = tris.len();
     let len = |f: usize, k: usize| {
         let (a, b) = (positions[tris[f][k] as usize], positions[tris[f][(k + 1) % 3] as usize]);
@@ -281,113 +281,8 @@ pub fn place_seams(
     report.camera_cost_before = ctx.camera_total(part);
 
     let origin = part.face_chart.clone();
-    // Faces to examine in the next sweep: at first all, then the neighbourhood of moves.
-    let mut dirty = vec![true; nf];
-    let mut cand: Vec<u32> = Vec::with_capacity(3);
-    for pass in 0..opts.max_passes {
-        report.passes = pass + 1;
-        let mut next = vec![false; nf];
-        let mut moved = 0usize;
-        for f in 0..nf {
-            let a = part.face_chart[f];
-            if !dirty[f] || a == NONE {
-                continue;
-            }
-            // Neighbouring charts whose photo sees the face: only those may take it, so a face
-            // with none costs neither the connectivity walk nor its own cost.
-            let seen = input.vis.of(f);
-            cand.clear();
-            for &g in &adj[f] {
-                if g == NONE {
-                    continue;
-                }
-                let b = part.face_chart[g as usize];
-                if b != NONE
-                    && b != a
-                    && !cand.contains(&b)
-                    && seen.binary_search(&part.chart_camera[b as usize]).is_ok()
-                {
-                    cand.push(b);
-                }
-            }
-            if cand.is_empty() || !leaves_chart_connected(f, a, adj, tris, &part.face_chart) {
-                continue;
-            }
-            let here = ctx.face_cost(f, a, part.chart_camera[a as usize], part);
-            let mut best = (here, a);
-            cand.sort_unstable();
-            for &b in &cand {
-                let cam = part.chart_camera[b as usize];
-                let c = ctx.face_cost(f, b, cam, part);
-                if c < best.0 - 1e-9 {
-                    best = (c, b);
-                }
-            }
-            if best.1 != a {
-                part.face_chart[f] = best.1;
-                moved += 1;
-                next[f] = true;
-                for &g in &adj[f] {
-                    if g != NONE {
-                        next[g as usize] = true;
-                    }
-                }
-            }
-        }
-        dirty = next;
-        report.moved_per_pass.push(moved);
-        if moved == 0 {
-            break;
-        }
-    }
-
-    // Moved faces that overlap a face of their new chart in its photo go back to where they
-    // came from, for good; a return can only clash with faces that moved in too, so this ends.
-    loop {
-        let mut members: Vec<Vec<u32>> = vec![Vec::new(); part.chart_camera.len()];
-        let mut touched = vec![false; part.chart_camera.len()];
-        for (f, (&c, &o)) in part.face_chart.iter().zip(&origin).enumerate() {
-            if c == NONE {
-                continue;
-            }
-            members[c as usize].push(f as u32);
-            if c != o {
-                touched[c as usize] = true;
-            }
-        }
-        // Charts in parallel, collected in chart order.
-        let found: Vec<Vec<u32>> = members
-            .par_iter()
-            .enumerate()
-            .filter(|(c, _)| touched[*c])
-            .map(|(c, list)| {
-                let cam = part.chart_camera[c];
-                let tri: Vec<[[f64; 2]; 3]> = list
-                    .iter()
-                    .map(|&f| ctx.projected(f as usize, cam).unwrap_or_default())
-                    .collect();
-                let mut out = Vec::new();
-                for (i, j) in chart_overlaps(&tri) {
-                    for f in [list[i as usize], list[j as usize]] {
-                        if part.face_chart[f as usize] != origin[f as usize] {
-                            out.push(f);
-                        }
-                    }
-                }
-                out
-            })
-            .collect();
-        let mut back: Vec<u32> = found.into_iter().flatten().collect();
-        if back.is_empty() {
-            break;
-        }
-        back.sort_unstable();
-        back.dedup();
-        for &f in &back {
-            part.face_chart[f as usize] = origin[f as usize];
-        }
-        report.faces_reverted += back.len();
-    }
+    ctx.descend(part, &mut report);
+    report.faces_reverted += ctx.revert_clashes(part, &origin);
     report.faces_moved = (0..nf).filter(|&f| part.face_chart[f] != origin[f]).count();
     compact_charts(part);
 
@@ -399,6 +294,127 @@ pub fn place_seams(
         .map(|f| input.metric.cost(f, part.chart_camera[part.face_chart[f] as usize]))
         .sum();
     report
+}
+
+impl Ctx<'_> {
+    /// The sweeps of the descent: each face examined moves to the neighbouring chart that lowers
+    /// its cost most, until a sweep moves none or `max_passes` is reached.
+    fn descend(&self, part: &mut Partition, report: &mut SeamPlacementReport) {
+        let (tris, adj, input, opts) = (self.input.tris, self.input.adj, self.input, self.opts);
+        let nf = tris.len();
+        // Faces to examine in the next sweep: at first all, then the neighbourhood of moves.
+        let mut dirty = vec![true; nf];
+        let mut cand: Vec<u32> = Vec::with_capacity(3);
+        for pass in 0..opts.max_passes {
+            report.passes = pass + 1;
+            let mut next = vec![false; nf];
+            let mut moved = 0usize;
+            for f in 0..nf {
+                let a = part.face_chart[f];
+                if !dirty[f] || a == NONE {
+                    continue;
+                }
+                // Neighbouring charts whose photo sees the face: only those may take it, so a face
+                // with none costs neither the connectivity walk nor its own cost.
+                let seen = input.vis.of(f);
+                cand.clear();
+                for &g in &adj[f] {
+                    if g == NONE {
+                        continue;
+                    }
+                    let b = part.face_chart[g as usize];
+                    if b != NONE
+                        && b != a
+                        && !cand.contains(&b)
+                        && seen.binary_search(&part.chart_camera[b as usize]).is_ok()
+                    {
+                        cand.push(b);
+                    }
+                }
+                if cand.is_empty() || !leaves_chart_connected(f, a, adj, tris, &part.face_chart) {
+                    continue;
+                }
+                let here = self.face_cost(f, a, part.chart_camera[a as usize], part);
+                let mut best = (here, a);
+                cand.sort_unstable();
+                for &b in &cand {
+                    let cam = part.chart_camera[b as usize];
+                    let c = self.face_cost(f, b, cam, part);
+                    if c < best.0 - 1e-9 {
+                        best = (c, b);
+                    }
+                }
+                if best.1 != a {
+                    part.face_chart[f] = best.1;
+                    moved += 1;
+                    next[f] = true;
+                    for &g in &adj[f] {
+                        if g != NONE {
+                            next[g as usize] = true;
+                        }
+                    }
+                }
+            }
+            dirty = next;
+            report.moved_per_pass.push(moved);
+            if moved == 0 {
+                break;
+            }
+        }
+    }
+
+    /// Sends back to their chart in `origin` the moved faces that overlap a face of their new
+    /// chart in its photo, for good; a return can only clash with faces that moved in too, so
+    /// this ends. Returns how many faces went back.
+    fn revert_clashes(&self, part: &mut Partition, origin: &[u32]) -> usize {
+        let mut reverted = 0;
+        loop {
+            let mut members: Vec<Vec<u32>> = vec![Vec::new(); part.chart_camera.len()];
+            let mut touched = vec![false; part.chart_camera.len()];
+            for (f, (&c, &o)) in part.face_chart.iter().zip(origin).enumerate() {
+                if c == NONE {
+                    continue;
+                }
+                members[c as usize].push(f as u32);
+                if c != o {
+                    touched[c as usize] = true;
+                }
+            }
+            // Charts in parallel, collected in chart order.
+            let found: Vec<Vec<u32>> = members
+                .par_iter()
+                .enumerate()
+                .filter(|(c, _)| touched[*c])
+                .map(|(c, list)| {
+                    let cam = part.chart_camera[c];
+                    let tri: Vec<[[f64; 2]; 3]> = list
+                        .iter()
+                        .map(|&f| self.projected(f as usize, cam).unwrap_or_default())
+                        .collect();
+                    let mut out = Vec::new();
+                    for (i, j) in chart_overlaps(&tri) {
+                        for f in [list[i as usize], list[j as usize]] {
+                            if part.face_chart[f as usize] != origin[f as usize] {
+                                out.push(f);
+                            }
+                        }
+                    }
+                    out
+                })
+                .collect();
+            let mut back: Vec<u32> = found.into_iter().flatten().collect();
+            if back.is_empty() {
+                break;
+            }
+            back.sort_unstable();
+            back.dedup();
+            for &f in &back {
+                part.face_chart[f as usize] = origin[f as usize];
+            }
+            reverted += back.len();
+        }
+        reverted
+    }
 }
 
 /// Drops charts left without faces (a chart whose faces all moved out and whose moved-in faces

@@ -261,30 +261,8 @@ pub fn generate(params: &SynthParams, work_dir: &Path) -> Result<SynthOutput, Sy
     let t_cams = Instant::now();
 
     // Charts, split until none folds over itself at the final texel scale.
-    let mut group: Vec<u32> = face_cam.iter().map(|&c| c as u32).collect();
-    let mut next_group = cams.len() as u32;
-    let (mut scale, mut rect, mut kept) = (Vec::new(), Vec::new(), Vec::new());
-    let mut global = 0.0;
-    let mut split_faces = 0;
-    let mut round = 0;
-    let (ch, bbox) = loop {
-        let ch = charts::components(&adj, &group, &face_cam);
-        let bbox = charts::extents(&ch, &m, &cams);
-        let ext: Vec<[f64; 2]> = bbox.iter().map(|b| [b[2] - b[0], b[3] - b[1]]).collect();
-        if round < RESCALE_ROUNDS {
-            global = pack::choose_scale(&ext, pad, size, params.sheets);
-        }
-        pack::sizes(&ext, global, pad, size, &mut scale, &mut rect);
-        let dropped = charts::check_overlaps(&ch, &m, &adj, &cams, &bbox, &scale, &mut kept);
-        if dropped == 0 {
-            break (ch, bbox);
-        }
-        split_faces += dropped;
-        charts::regroup(&ch, &kept, &mut group, &mut next_group);
-        round += 1;
-    };
-    drop(group);
-    drop(kept);
+    let Split { ch, bbox, scale, rect, split_faces } =
+        split_charts(params, &m, &adj, &cams, &face_cam);
     let (mut order, mut place) = (Vec::new(), Vec::new());
     let sheet_count = pack::shelf_pack(&rect, size, &mut order, &mut place) as usize;
     drop(order);
@@ -302,50 +280,9 @@ pub fn generate(params: &SynthParams, work_dir: &Path) -> Result<SynthOutput, Sy
     let (uvs, face_uv) = charts::build_uvs(&ch, &m, &cams, &bbox, &scale, &place, pad, size);
 
     let single_face_charts = (0..ch.len()).filter(|&c| ch.range(c).len() == 1).count();
-    let faces: Vec<Face> = m
-        .tris
-        .iter()
-        .zip(&face_uv)
-        .enumerate()
-        .map(|(f, (t, uv))| Face {
-            v: t.map(VertexId),
-            uv: Some(uv.map(UvId)),
-            n: None,
-            material: Some(MaterialId(place[ch.face_chart[f] as usize].sheet)),
-        })
-        .collect();
+    let faces = chart_faces(&m.tris, &face_uv, &ch, &place);
     drop(face_uv);
-    let materials = (0..sheet_count)
-        .map(|k| Material {
-            name: format!("sheet_{k}"),
-            sheet: Some(SheetId(k as u32)),
-            extra: Vec::new(),
-        })
-        .collect();
-    let sheets_meta = (0..sheet_count)
-        .map(|k| Sheet {
-            image: ImageSource::File(PathBuf::from(sheet_file_name(k))),
-            size: Some((size, size)),
-        })
-        .collect();
-    let model = Model {
-        path: PathBuf::new(),
-        positions: m.positions,
-        uvs,
-        normals: Vec::new(),
-        faces,
-        materials,
-        sheets: sheets_meta,
-        origin: Default::default(),
-        notes: vec![format!(
-            "synthetic {} model, seed {}, {} cameras, {} charts",
-            params.shape,
-            seed,
-            params.cameras,
-            ch.len()
-        )],
-        warnings: Vec::new(),
-    };
+    let model = synth_model(params, m.positions, uvs, faces, sheet_count, ch.len());
     let t_charts = Instant::now();
 
     let (stores, stats) = paint::paint(&model, sheet_count, size, params.gutter, work_dir)?;
@@ -378,6 +315,111 @@ pub fn generate(params: &SynthParams, work_dir: &Path) -> Result<SynthOutput, Sy
         },
     };
     Ok(SynthOutput { model, sheets: stores, report })
+}
+
+/// The charts of a synthetic scan at their final texel scale.
+struct Split {
+    ch: charts::Charts,
+    /// Each chart's extent in its camera's image plane.
+    bbox: Vec<[f64; 4]>,
+    /// Each chart's texel scale and its rectangle in pixels, gutter included.
+    scale: Vec<f64>,
+    rect: Vec<[u32; 2]>,
+    /// Faces split off their chart because they covered texel centres it already covered.
+    split_faces: usize,
+}
+
+/// Groups the faces into charts by camera and splits them until none folds over itself at the
+/// texel scale that fills the asked-for sheets (the scale is frozen after `RESCALE_ROUNDS`).
+fn split_charts(
+    params: &SynthParams,
+    m: &mesh::Mesh,
+    adj: &[u32],
+    cams: &[cameras::Camera],
+    face_cam: &[u16],
+) -> Split {
+    let (size, pad) = (params.sheet_size, params.padding);
+    let mut group: Vec<u32> = face_cam.iter().map(|&c| c as u32).collect();
+    let mut next_group = cams.len() as u32;
+    let (mut scale, mut rect, mut kept) = (Vec::new(), Vec::new(), Vec::new());
+    let mut global = 0.0;
+    let mut split_faces = 0;
+    let mut round = 0;
+    loop {
+        let ch = charts::components(adj, &group, face_cam);
+        let bbox = charts::extents(&ch, m, cams);
+        let ext: Vec<[f64; 2]> = bbox.iter().map(|b| [b[2] - b[0], b[3] - b[1]]).collect();
+        if round < RESCALE_ROUNDS {
+            global = pack::choose_scale(&ext, pad, size, params.sheets);
+        }
+        pack::sizes(&ext, global, pad, size, &mut scale, &mut rect);
+        let dropped = charts::check_overlaps(&ch, m, adj, cams, &bbox, &scale, &mut kept);
+        if dropped == 0 {
+            return Split { ch, bbox, scale, rect, split_faces };
+        }
+        split_faces += dropped;
+        charts::regroup(&ch, &kept, &mut group, &mut next_group);
+        round += 1;
+    }
+}
+
+/// One face per triangle, with its chart's UVs and the material of its chart's sheet.
+fn chart_faces(
+    tris: &[[u32; 3]],
+    face_uv: &[[u32; 3]],
+    ch: &charts::Charts,
+    place: &[pack::Place],
+) -> Vec<Face> {
+    tris.iter()
+        .zip(face_uv)
+        .enumerate()
+        .map(|(f, (t, uv))| Face {
+            v: t.map(VertexId),
+            uv: Some(uv.map(UvId)),
+            n: None,
+            material: Some(MaterialId(place[ch.face_chart[f] as usize].sheet)),
+        })
+        .collect()
+}
+
+/// The model of a synthetic scan: one material and one sheet file per sheet.
+fn synth_model(
+    params: &SynthParams,
+    positions: Vec<[f64; 3]>,
+    uvs: Vec<[f64; 2]>,
+    faces: Vec<Face>,
+    sheet_count: usize,
+    n_charts: usize,
+) -> Model {
+    let size = params.sheet_size;
+    let materials = (0..sheet_count)
+        .map(|k| Material {
+            name: format!("sheet_{k}"),
+            sheet: Some(SheetId(k as u32)),
+            extra: Vec::new(),
+        })
+        .collect();
+    let sheets_meta = (0..sheet_count)
+        .map(|k| Sheet {
+            image: ImageSource::File(PathBuf::from(sheet_file_name(k))),
+            size: Some((size, size)),
+        })
+        .collect();
+    Model {
+        path: PathBuf::new(),
+        positions,
+        uvs,
+        normals: Vec::new(),
+        faces,
+        materials,
+        sheets: sheets_meta,
+        origin: Default::default(),
+        notes: vec![format!(
+            "synthetic {} model, seed {}, {} cameras, {} charts",
+            params.shape, params.seed, params.cameras, n_charts
+        )],
+        warnings: Vec::new(),
+    }
 }
 
 /// Area-weighted quantiles of the charts' texel density (texels per model unit of length).
