@@ -4,7 +4,8 @@
 # prints one table row per target. Budgets are CPU time rather than wall time so that a machine
 # busy with other work still gives each target the same amount of fuzzing.
 # Logs: fuzz/logs/<target>.log; findings: fuzz/artifacts/<target>/; corpora: fuzz/corpus/<target>/.
-# TARGETS="obj ply" limits the run to some targets.
+# TARGETS="obj ply" limits the run to some targets; `fuzz/run-all.sh table` only prints the table of
+# the last runs' logs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 secs=${1:-1800}
@@ -13,6 +14,28 @@ targets=${TARGETS:-obj ply gltf image colmap bundler config}
 host=$(rustc -vV | sed -n 's/^host: //p')
 bin="fuzz/target/$host/release"
 tick=$(getconf CLK_TCK)
+
+# One table row per target, from its log and its findings.
+table() {
+  echo "| target | CPU s | executions | coverage (cov / ft) | corpus | peak RSS | findings |"
+  echo "|---|---|---|---|---|---|---|"
+  for t in $targets; do
+    log="fuzz/logs/$t.log"
+    cpu=$(sed -n 's/^cpu_seconds: //p' "$log" | tail -1)
+    execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
+    rss=$(sed -n 's/^stat::peak_rss_mb: *//p' "$log" | tail -1)
+    last=$(grep -E '^#[0-9]+' "$log" | tail -1)
+    cov=$(sed -n 's/.* cov: \([0-9]*\) ft: \([0-9]*\).*/\1 \/ \2/p' <<<"$last")
+    corp=$(sed -n 's/.* corp: \([^ ]*\).*/\1/p' <<<"$last")
+    found=$(find "fuzz/artifacts/$t" -type f | wc -l)
+    echo "| $t | $cpu | $execs | $cov | $corp | ${rss} MB | $found |"
+  done
+}
+
+if [ "$secs" = table ]; then
+  table
+  exit 0
+fi
 
 RUSTC_BOOTSTRAP=1 cargo fuzz build --fuzz-dir fuzz -O
 mkdir -p fuzz/logs
@@ -53,16 +76,4 @@ for t in $targets; do
 done
 wait
 
-echo "| target | CPU s | executions | coverage (cov / ft) | corpus | peak RSS | findings |"
-echo "|---|---|---|---|---|---|---|"
-for t in $targets; do
-  log="fuzz/logs/$t.log"
-  cpu=$(sed -n 's/^cpu_seconds: //p' "$log" | tail -1)
-  execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
-  rss=$(sed -n 's/^stat::peak_rss_mb: *//p' "$log" | tail -1)
-  last=$(grep -E '^#[0-9]+' "$log" | tail -1)
-  cov=$(sed -n 's/.* cov: \([0-9]*\) ft: \([0-9]*\).*/\1 \/ \2/p' <<<"$last")
-  corp=$(sed -n 's/.* corp: \([^ ]*\).*/\1/p' <<<"$last")
-  found=$(find "fuzz/artifacts/$t" -type f | wc -l)
-  echo "| $t | $cpu | $execs | $cov | $corp | ${rss} MB | $found |"
-done
+table
