@@ -147,39 +147,67 @@ fn decode_inner(op: Opened<'_>, work_dir: &Path) -> Result<TileStore, TextureErr
     let filtered = reader
         .filter_chunks(false, |_, _, block| block.layer == 0 && block.level == Vec2(0, 0))
         .map_err(|e| err(&name, e))?;
-    filtered
-        .decompress_parallel(false, |_, block| {
-            let Vec2(bx, by) = block.index.pixel_position;
-            let Vec2(bw, bh) = block.index.pixel_size;
-            if bx + bw > width as usize || by + bh > height as usize {
-                failure = Some(decode_err(&name, "OpenEXR: block outside the data window"));
-                return Err(exr::error::Error::Aborted);
-            }
-            row.resize(bw * bpp, 0);
-            for line in block.lines(&channels) {
-                let c = line.location.channel;
-                if let Some(dst) = map[c] {
-                    let ty = channels.list[c].sample_type;
-                    let size = ty.bytes_per_sample();
-                    for (i, s) in line.value.chunks_exact(size).enumerate().take(bw) {
-                        let v = match ty {
-                            ExrSample::F16 => f16::from_ne_bytes([s[0], s[1]]).to_f32(),
-                            ExrSample::F32 => f32::from_ne_bytes([s[0], s[1], s[2], s[3]]),
-                            ExrSample::U32 => u32::from_ne_bytes([s[0], s[1], s[2], s[3]]) as f32,
-                        };
-                        let o = i * bpp + dst * 4;
-                        row[o..o + 4].copy_from_slice(&v.to_ne_bytes());
-                    }
-                }
-                if c == last_channel {
-                    store.write_row(line.location.position.1 as u32, bx as u32, &row);
+    let mut insert = |_: &MetaData, block: UncompressedBlock| {
+        let Vec2(bx, by) = block.index.pixel_position;
+        let Vec2(bw, bh) = block.index.pixel_size;
+        if bx + bw > width as usize || by + bh > height as usize {
+            failure = Some(decode_err(&name, "OpenEXR: block outside the data window"));
+            return Err(exr::error::Error::Aborted);
+        }
+        row.resize(bw * bpp, 0);
+        for line in block.lines(&channels) {
+            let c = line.location.channel;
+            if let Some(dst) = map[c] {
+                let ty = channels.list[c].sample_type;
+                let size = ty.bytes_per_sample();
+                for (i, s) in line.value.chunks_exact(size).enumerate().take(bw) {
+                    let v = match ty {
+                        ExrSample::F16 => f16::from_ne_bytes([s[0], s[1]]).to_f32(),
+                        ExrSample::F32 => f32::from_ne_bytes([s[0], s[1], s[2], s[3]]),
+                        ExrSample::U32 => u32::from_ne_bytes([s[0], s[1], s[2], s[3]]) as f32,
+                    };
+                    let o = i * bpp + dst * 4;
+                    row[o..o + 4].copy_from_slice(&v.to_ne_bytes());
                 }
             }
-            Ok(())
-        })
+            if c == last_channel {
+                store.write_row(line.location.position.1 as u32, bx as u32, &row);
+            }
+        }
+        Ok(())
+    };
+    decompress(filtered, u64::from(width) * u64::from(height), &mut insert)
         .map_err(|e| failure.take().unwrap_or_else(|| err(&name, e)))?;
     store.release_tile_rows(0, store.tiles_y());
     Ok(store)
+}
+
+/// Images of fewer pixels than this are decompressed on the calling thread: a thread pool costs
+/// more than it saves on them.
+const PARALLEL_MIN_PIXELS: u64 = 1 << 20;
+
+/// Decompresses every chunk of `chunks` into `insert`. The exr crate's own parallel decoder
+/// builds a pool of one thread per core for every image, whatever `--threads` says; here a
+/// small image stays on this thread, and a large one gets a pool no wider than the run's.
+fn decompress<R: ChunksReader>(
+    chunks: R,
+    pixels: u64,
+    insert: &mut impl FnMut(&MetaData, UncompressedBlock) -> exr::error::UnitResult,
+) -> exr::error::UnitResult {
+    let threads = rayon::current_num_threads();
+    if threads <= 1 || pixels < PARALLEL_MIN_PIXELS {
+        return chunks.decompress_sequential(false, insert);
+    }
+    let pool = || rayon::ThreadPoolBuilder::new().num_threads(threads).build();
+    match exr::block::reader::ParallelBlockDecompressor::new_with_thread_pool(chunks, false, pool) {
+        Ok(mut blocks) => {
+            while let Some(block) = blocks.next() {
+                insert(blocks.meta_data(), block?)?;
+            }
+            Ok(())
+        }
+        Err(chunks) => chunks.decompress_sequential(false, insert),
+    }
 }
 
 /// Writes `store` as a tiled (256×256, ZIP16) f32 OpenEXR file to `w`.
