@@ -434,6 +434,19 @@ fn tiled_exr_round_trips_f32_exactly_and_scales_integers() {
 }
 
 #[test]
+fn a_large_exr_decodes_in_parallel_to_the_same_texels() {
+    // Over a million pixels, so the blocks are decompressed on a thread pool.
+    let dir = tempfile::tempdir().unwrap();
+    let (w, h) = (1100, 1000);
+    let src = pattern_store(dir.path(), w, h, fmt(3, SampleType::F32));
+    let path = dir.path().join("big.exr");
+    write_image(&src, &path, &EncodeOptions::default()).unwrap();
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+    let back = pool.install(|| decode_to_store(&file(&path), dir.path())).unwrap();
+    assert_same(&src, &back);
+}
+
+#[test]
 fn scanline_f16_exr_is_read() {
     use exr::block::UncompressedBlock;
     use exr::block::writer::ChunksWriter;
