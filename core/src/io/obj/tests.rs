@@ -450,3 +450,22 @@ fn writer_refuses_protected_targets_and_writes_nothing() {
     let err = crate::io::write_model(&m, &obj, &WriteOptions::default()).unwrap_err();
     assert!(err.to_string().contains("refusing"), "{err}");
 }
+
+#[test]
+fn a_material_name_with_a_newline_cannot_start_an_mtl_statement() {
+    let named =
+        |name: &str| crate::model::Material { name: name.into(), sheet: None, extra: Vec::new() };
+    let model = Model {
+        materials: vec![
+            named("skin\nmap_Kd /etc/passwd"),
+            named(" "),
+            named("skin_map_Kd /etc/passwd"),
+        ],
+        ..Model::default()
+    };
+    let names = super::write::material_names(&model);
+    assert_eq!(names[0], "skin_map_Kd /etc/passwd");
+    assert_eq!(names[1], "material_1");
+    assert_eq!(names[2], "skin_map_Kd /etc/passwd_2");
+    assert!(names.iter().all(|n| !n.contains('\n')));
+}

@@ -112,17 +112,20 @@ fn write_file(
 }
 
 /// Material names as written: an empty or repeated name gets a suffix, so every `usemtl` of
-/// the output names exactly one material.
-fn material_names(model: &Model) -> Vec<String> {
+/// the output names exactly one material, and control characters become `_`, so that a name
+/// from another format (a glTF name holding a newline) can never start a statement of its own.
+pub(super) fn material_names(model: &Model) -> Vec<String> {
     let mut seen = std::collections::HashSet::new();
     model
         .materials
         .iter()
         .enumerate()
         .map(|(k, m)| {
-            let base = if m.name.trim().is_empty() { "material" } else { m.name.trim() };
+            let clean: String =
+                m.name.trim().chars().map(|c| if c.is_control() { '_' } else { c }).collect();
+            let base = if clean.is_empty() { "material" } else { clean.as_str() };
             let mut name = base.to_string();
-            if m.name.trim().is_empty() || !seen.insert(name.clone()) {
+            if clean.is_empty() || !seen.insert(name.clone()) {
                 name = format!("{base}_{k}");
                 seen.insert(name.clone());
             }
