@@ -6,6 +6,9 @@ use std::process::ExitCode;
 
 use clap::Parser;
 use scanatlas_cli::{cli, commands, progress};
+use tracing_subscriber::filter::Targets;
+use tracing_subscriber::layer::SubscriberExt;
+use tracing_subscriber::util::SubscriberInitExt;
 
 fn main() -> ExitCode {
     let args = cli::Cli::parse();
@@ -94,11 +97,16 @@ fn init_logging(verbose: u8, quiet: bool) {
         (false, 2) => "debug",
         _ => "trace",
     };
-    let filter = tracing_subscriber::EnvFilter::try_from_env("SCANATLAS_LOG")
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
+    // `Targets` reads `SCANATLAS_LOG` directives such as `info` or `scanatlas_core=debug,warn`
+    // without the regular-expression engine that `EnvFilter` would add to the build.
+    let from_env = std::env::var("SCANATLAS_LOG")
+        .ok()
+        .and_then(|directives| directives.parse::<Targets>().ok());
+    let filter = from_env.unwrap_or_else(|| level.parse::<Targets>().unwrap_or_default());
     tracing_subscriber::fmt()
-        .with_env_filter(filter)
         .with_writer(std::io::stderr)
         .with_target(false)
+        .finish()
+        .with(filter)
         .init();
 }
