@@ -236,14 +236,18 @@ fn assert_nothing_or_complete(cwd: &Path, dir: &str) {
     assert!(out.status.success(), "the set does not load: {}", stderr(&out));
 }
 
+/// When the signals land after the run has started: at once, then at growing delays.
+const SIGNAL_DELAYS_MS: [u64; 5] = [0, 200, 500, 1000, 2000];
+
+/// SIGTERM and SIGINT stop the run cleanly whatever moment they land: exit 143 or 130 (or 0 if
+/// the run was done), the old set or the whole new one, an "interrupted" report, no stray file.
 #[test]
-fn signals_and_kills_leave_a_whole_set_and_no_stray_file() {
+fn signals_leave_a_whole_set_and_no_stray_file() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     synth(d, "r", "20000", "1024", "obj");
     std::fs::create_dir(d.join("work")).unwrap();
-    let delays = [0u64, 200, 500, 1000, 2000];
-    for (k, &ms) in delays.iter().enumerate() {
+    for (k, &ms) in SIGNAL_DELAYS_MS.iter().enumerate() {
         let out_dir = format!("t{k}");
         let report = format!("{out_dir}.json");
         let extra = ["--work-dir", "work", "--report", report.as_str()];
@@ -275,7 +279,17 @@ fn signals_and_kills_leave_a_whole_set_and_no_stray_file() {
         assert!(stray.is_empty(), "stray files after {sig} at {ms} ms: {stray:?}");
         assert!(names(&d.join("work")).is_empty(), "tile files left in the work folder");
     }
-    for (k, &ms) in delays.iter().enumerate() {
+}
+
+/// A SIGKILL cannot be handled: whatever moment it lands, the output folder holds the old set or
+/// the new one, no tile file stays, and the next run clears what the killed one left.
+#[test]
+fn kills_leave_a_whole_set_and_the_next_run_clears_the_rest() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    synth(d, "r", "20000", "1024", "obj");
+    std::fs::create_dir(d.join("work")).unwrap();
+    for (k, &ms) in SIGNAL_DELAYS_MS.iter().enumerate() {
         let out_dir = format!("k{k}");
         let mut child =
             spawn_defrag(d, "r/scan.obj", &format!("{out_dir}/o.obj"), &["--work-dir", "work"]);

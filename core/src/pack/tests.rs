@@ -2,7 +2,7 @@
 //! preserved faces land bit-exactly on `transform.apply(orig)`, charts keep `2·padding` apart on
 //! their sheets, sheets overflow and trim, and bad input is refused.
 
-use proptest::prelude::*;
+use crate::rng::SplitMix64;
 
 use super::footprint::rasterize;
 use super::*;
@@ -342,31 +342,43 @@ fn faces_without_uvs_are_left_out_and_bad_input_refused() {
     ));
 }
 
-proptest! {
-    #![proptest_config(ProptestConfig::with_cases(48))]
-
-    #[test]
-    fn random_charts_keep_apart_and_exact(
-        charts in prop::collection::vec(
-            (1u32..8, 1u32..6, -3.2f64..3.2, any::<bool>(), 0.0f64..1.0, 0.0f64..1.0, any::<bool>()),
-            1..12,
-        ),
-        padding in 0u32..5,
-    ) {
+/// Random layouts from a seeded stream (48 cases, as a property test): charts of 1–7 × 1–5
+/// cells, turned, mirrored or stretched, on small sheets with padding 0–4. Every layout keeps
+/// its charts apart and exact, and exactly the unstretched charts are anchored. A failing case
+/// shows its seed in the captured output, so it replays alone.
+#[test]
+fn random_charts_keep_apart_and_exact() {
+    for case in 0..48u64 {
+        let mut rng = SplitMix64::new(case);
+        let n_charts = 1 + rng.below(11);
+        let padding = rng.below(5) as u32;
+        eprintln!("case {case}: {n_charts} charts, padding {padding}");
         let mut m = Mesh::default();
-        for (i, &(n, k, angle, mirror, fx, fy, stretch)) in charts.iter().enumerate() {
-            m.chart(n, k, [10.0 * i as f64 + fx, fy], |_| 0, |p| {
-                let p = if mirror { [-p[0], p[1]] } else { p };
-                let p = if stretch { [p[0] * 1.1, p[1]] } else { p };
-                let r = rot(angle, p);
-                [r[0] + 3.7, r[1] + 0.01]
-            });
+        let mut rigid = 0;
+        for i in 0..n_charts {
+            let (n, k) = (1 + rng.below(7) as u32, 1 + rng.below(5) as u32);
+            let angle = rng.range(-3.2, 3.2);
+            let (mirror, stretch) = (rng.below(2) == 1, rng.below(2) == 1);
+            let (fx, fy) = (rng.unit(), rng.unit());
+            rigid += usize::from(!stretch);
+            m.chart(
+                n,
+                k,
+                [10.0 * i as f64 + fx, fy],
+                |_| 0,
+                |p| {
+                    let p = if mirror { [-p[0], p[1]] } else { p };
+                    let p = if stretch { [p[0] * 1.1, p[1]] } else { p };
+                    let r = rot(angle, p);
+                    [r[0] + 3.7, r[1] + 0.01]
+                },
+            );
         }
-        let opts = PackOptions { padding, max_sheet_size: Some((48, 40)), ..PackOptions::default() };
+        let opts =
+            PackOptions { padding, max_sheet_size: Some((48, 40)), ..PackOptions::default() };
         let out = pack_layout(&m.input(&SHEETS), &Shelf, &opts).unwrap();
         check_layout(&m, &out, padding);
-        let rigid = charts.iter().filter(|c| !c.6).count();
-        prop_assert_eq!(out.report.anchored_charts, rigid);
+        assert_eq!(out.report.anchored_charts, rigid, "case {case}");
     }
 }
 

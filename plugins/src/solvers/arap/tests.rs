@@ -4,7 +4,6 @@
 use super::*;
 use scanatlas_core::geometry::{mean_isometric_energy, orientation};
 use scanatlas_core::rng::XorShift64;
-use std::time::Instant;
 
 /// A jittered `nx × ny` vertex grid with unit spacing at texel offset `origin`, split into
 /// counter-clockwise triangles. Returns the points and the triangles.
@@ -432,37 +431,18 @@ fn iteration_limit_and_parameters() {
     assert!(matches!(registry.solver(NAME, &unknown), Err(PluginError::UnknownParam { .. })));
 }
 
-/// Solves locally stretched square grids of about 1k, 10k and 100k free vertices and prints the
-/// times (run with `--release -- --nocapture` for meaningful figures).
+/// Locally stretched square grids of about 1k and 10k free vertices: the solve keeps the
+/// contract and at least halves the energy. (The `arap` benchmark times the solver.)
 #[test]
-fn timing_table() {
-    println!(
-        "| free vertices | triangles | iterations | first solve (setup + 1 it.) ms | full solve ms | energy before → after |"
-    );
-    println!("|---|---|---|---|---|---|");
-    for side in [34usize, 102, 318] {
+fn stretched_grids_of_growing_size_relax() {
+    for side in [34usize, 102] {
         let (rest, tris) = grid(side, side, 0.2, [0.0, 0.0], side as u64);
         let before =
             problem(locally_stretched(&rest, side, side), &rest, tris, border_fixed(side, side));
-        let free = before.fixed.iter().filter(|&&f| !f).count();
-        let mut one = ArapSolver::new(ArapParams { max_iterations: 1, tolerance: 1e-8 });
-        let mut p = before.clone();
-        let start = Instant::now();
-        one.solve(&mut p).expect("solve");
-        let first = start.elapsed().as_secs_f64() * 1e3;
         let mut solver = ArapSolver::new(ArapParams::default());
         let mut p = before.clone();
-        let start = Instant::now();
         let report = solver.solve(&mut p).expect("solve");
-        let full = start.elapsed().as_secs_f64() * 1e3;
-        println!(
-            "| {free} | {} | {} | {first:.1} | {full:.1} | {:.3e} → {:.3e} |",
-            before.triangles.len(),
-            report.iterations,
-            report.energy_before,
-            report.energy_after
-        );
         check_contract(&before, &p, &report);
-        assert!(report.energy_after < 0.5 * report.energy_before, "{report:?}");
+        assert!(report.energy_after < 0.5 * report.energy_before, "side {side}: {report:?}");
     }
 }
