@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# CI: the HTML report rendered in headless Chromium (tools/tests/report_browser.rs). Installs the
+# CI: the HTML report rendered in headless Chromium (tools/tests/suite/report_browser.rs). Installs the
 # Debian package `chromium` when it is missing (CI runs as root), then runs the test, which fails
 # when the browser cannot be found.
 set -euo pipefail
@@ -25,4 +25,4 @@ fi
 echo "== report in headless chromium ($browser)"
 # --workspace, as in .ci/run, so the dependencies' features unify and nothing is rebuilt.
 SCANATLAS_CHROMIUM="$browser" \
-  cargo test --release --test report_browser -- --ignored --test-threads=1
+  cargo test --release --test suite report_browser:: -- --ignored --test-threads=1

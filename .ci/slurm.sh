@@ -4,7 +4,7 @@
 # slurmd (each remembered by pid), runs the Slurm test target (or the command given after `--`),
 # and stops exactly the daemons it started on exit, whatever the outcome.
 #
-#   bash .ci/slurm.sh            # the test: cargo test --release --test slurm -- --ignored
+#   bash .ci/slurm.sh            # the test: cargo test --release --test suite slurm:: -- --ignored
 #   bash .ci/slurm.sh -- CMD...  # any command with SLURM_CONF set, e.g. `-- bash` to try things
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -117,6 +117,6 @@ if [ "${1:-}" = "--" ]; then
 else
   # The default members in the release profile, so that the dependencies' features unify as in .ci/run's
   # `cargo test --release` (the README command) and nothing but the test is built again.
-  echo "== Slurm test: cargo test --release --test slurm -- --ignored"
-  SCANATLAS_SLURM=1 cargo test --release --test slurm -- --ignored --nocapture
+  echo "== Slurm test: cargo test --release --test suite slurm:: -- --ignored"
+  SCANATLAS_SLURM=1 cargo test --release --test suite slurm:: -- --ignored --nocapture
 fi

@@ -1,6 +1,6 @@
 //! What every fuzz target shares: a private scratch folder per process, the split of one fuzz
 //! input into the several files a format spreads over, and the body of each reader's target (so
-//! that `tools/tests/fuzz_regressions.rs` replays kept inputs through the very same code).
+//! that `tools/tests/suite/fuzz_regressions.rs` replays kept inputs through the very same code).
 
 #![allow(dead_code)]
 

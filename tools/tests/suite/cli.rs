@@ -4,8 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-mod common;
-use common::scanatlas;
+use crate::common::scanatlas;
 
 /// Asserts a clean failure: exit status 1, an error line naming `needle`, no panic.
 #[track_caller]

@@ -4,9 +4,9 @@
 
 use std::path::Path;
 
-#[path = "../../fuzz/fuzz_targets/common.rs"]
+#[path = "../../../fuzz/fuzz_targets/common.rs"]
 mod common;
-#[path = "../../fuzz/fuzz_targets/config_input.rs"]
+#[path = "../../../fuzz/fuzz_targets/config_input.rs"]
 mod config_input;
 
 /// The code a fuzz target runs on one input.

@@ -4,8 +4,7 @@
 use std::path::Path;
 use std::process::Output;
 
-mod common;
-use common::scanatlas;
+use crate::common::scanatlas;
 
 fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()

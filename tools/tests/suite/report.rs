@@ -5,8 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-mod common;
-use common::scanatlas;
+use crate::common::scanatlas;
 
 #[track_caller]
 fn ok(out: &Output) -> String {

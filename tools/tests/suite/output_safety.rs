@@ -6,8 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-mod common;
-use common::snapshot;
+use crate::common::snapshot;
 
 fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_scanatlas"));
