@@ -87,6 +87,39 @@ pub fn gltf(data: &[u8]) {
     load(&put("m.gltf", parts[0]));
 }
 
+/// Runs `body` on `data`; with `SCANATLAS_FUZZ_PEAK_MB=N` set, aborts (so that libFuzzer keeps
+/// the input as a crash) when the process's peak resident size rose more than N MB above its
+/// resident size before the input. libFuzzer samples the resident size once a second, so its own
+/// out-of-memory report names whichever input ran at that moment; this names the input that
+/// raised the peak, read from the kernel's high-water mark (`VmHWM`, reset before each input).
+pub fn watch_peak(data: &[u8], body: impl FnOnce(&[u8])) {
+    static LIMIT_MB: OnceLock<Option<u64>> = OnceLock::new();
+    let limit =
+        LIMIT_MB.get_or_init(|| std::env::var("SCANATLAS_FUZZ_PEAK_MB").ok()?.parse().ok());
+    let Some(limit_mb) = *limit else { return body(data) };
+    // Writing 5 to clear_refs resets the high-water mark to the current resident size.
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+    let before = status_kb("VmRSS:");
+    body(data);
+    let peak = status_kb("VmHWM:");
+    if peak.saturating_sub(before) > limit_mb * 1024 {
+        eprintln!(
+            "the peak resident size rose {} MB (from {} MB) during this {}-byte input",
+            (peak - before) / 1024,
+            before / 1024,
+            data.len()
+        );
+        std::process::abort();
+    }
+}
+
+/// A `kB` field of `/proc/self/status`, 0 if it cannot be read.
+fn status_kb(field: &str) -> u64 {
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    let line = status.lines().find(|l| l.starts_with(field)).unwrap_or_default();
+    line.split_whitespace().nth(1).and_then(|kb| kb.parse().ok()).unwrap_or(0)
+}
+
 /// The `image` target: a PNG, JPEG, TIFF, OpenEXR or WebP file, probed then decoded.
 pub fn image(data: &[u8]) {
     use scanatlas_core::model::ImageSource;

@@ -6,4 +6,4 @@
 #[path = "common.rs"]
 mod common;
 
-libfuzzer_sys::fuzz_target!(|data: &[u8]| common::image(data));
+libfuzzer_sys::fuzz_target!(|data: &[u8]| common::watch_peak(data, common::image));
