@@ -94,8 +94,7 @@ pub fn gltf(data: &[u8]) {
 /// raised the peak, read from the kernel's high-water mark (`VmHWM`, reset before each input).
 pub fn watch_peak(data: &[u8], body: impl FnOnce(&[u8])) {
     static LIMIT_MB: OnceLock<Option<u64>> = OnceLock::new();
-    let limit =
-        LIMIT_MB.get_or_init(|| std::env::var("SCANATLAS_FUZZ_PEAK_MB").ok()?.parse().ok());
+    let limit = LIMIT_MB.get_or_init(|| std::env::var("SCANATLAS_FUZZ_PEAK_MB").ok()?.parse().ok());
     let Some(limit_mb) = *limit else { return body(data) };
     // Writing 5 to clear_refs resets the high-water mark to the current resident size.
     let _ = std::fs::write("/proc/self/clear_refs", "5");

@@ -242,6 +242,24 @@ fn a_far_off_uv_costs_no_memory_and_is_collapsed_with_a_warning() {
     assert!(!dir.path().join("s/o.obj").exists());
 }
 
+/// The image fuzzer's finding: a 554-byte OpenEXR texture whose tiles claim 256 × 2,949,376
+/// pixels over a 64 × 64 image made the decoder allocate and zero hundreds of megabytes before
+/// it found the data missing. It is refused from its header now, within a small memory.
+#[test]
+fn an_exr_texture_with_tiles_far_larger_than_the_image_costs_no_memory() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let found = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fuzz-regressions/image/exr-tiles-far-larger-than-the-image");
+    std::fs::copy(found, d.join("t.exr")).unwrap();
+    std::fs::write(d.join("m.mtl"), "newmtl m\nmap_Kd t.exr\n").unwrap();
+    let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl m\nf 1/1 2/2 3/3\n";
+    std::fs::write(d.join("m.obj"), obj).unwrap();
+    let (out, peak) = scanatlas_peak_rss(&["convert", "m.obj", "-o", "o/o.obj"], d);
+    assert_fails_with(&out, "far larger than the 64×64 image");
+    assert!(peak < 64 << 20, "peak resident memory {} MB", peak >> 20);
+}
+
 /// Runs `scanatlas args`, failing the test instead of hanging when it takes over 60 s.
 fn scanatlas_within_a_minute(args: &[&str], cwd: &Path) -> Output {
     let mut child = Command::new(env!("CARGO_BIN_EXE_scanatlas"))

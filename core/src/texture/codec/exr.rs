@@ -121,6 +121,7 @@ fn decode_inner(op: Opened<'_>, work_dir: &Path) -> Result<TileStore, TextureErr
     }
     let (width, height) = size_of(&name, header)?;
     check_plausible(&name, width, height, op.len, super::MAX_PIXELS_PER_FILE_BYTE)?;
+    check_block_size(&name, header, width, height)?;
     // Every chunk has an 8-byte entry in the offset table, which must fit in the file.
     let chunks: u64 = reader.headers().iter().map(|h| h.chunk_count as u64).sum();
     if chunks.saturating_mul(8) > op.len {
@@ -180,6 +181,42 @@ fn decode_inner(op: Opened<'_>, work_dir: &Path) -> Result<TileStore, TextureErr
         .map_err(|e| failure.take().unwrap_or_else(|| err(&name, e)))?;
     store.release_tile_rows(0, store.tiles_y());
     Ok(store)
+}
+
+/// Blocks may always be this large (bytes), whatever the image: a 64×64 image stored in 256×256
+/// tiles of many channels is honest.
+const BLOCK_BYTES_ALWAYS_ALLOWED: u64 = 16 << 20;
+
+/// Refuses blocks (tiles, or groups of scan lines) far larger than the part of the image they
+/// cover. The exr crate allocates and zeroes up to a whole block before reading one, so a file
+/// of a few hundred bytes whose tiles are millions of pixels tall over a small image would cost
+/// hundreds of megabytes before the decoder found the data missing. A block may be four times
+/// its part of the image, or [`BLOCK_BYTES_ALWAYS_ALLOWED`].
+fn check_block_size(
+    name: &str,
+    header: &Header,
+    width: u32,
+    height: u32,
+) -> Result<(), TextureError> {
+    let bytes_per_pixel = header.channels.bytes_per_pixel as u64;
+    let (block_w, block_h) = match header.blocks {
+        BlockDescription::Tiles(tiles) => (tiles.tile_size.0 as u64, tiles.tile_size.1 as u64),
+        BlockDescription::ScanLines => {
+            (u64::from(width), header.compression.scan_lines_per_block() as u64)
+        }
+    };
+    let whole = block_w.saturating_mul(block_h).saturating_mul(bytes_per_pixel);
+    let covered = block_w.min(u64::from(width)) * block_h.min(u64::from(height)) * bytes_per_pixel;
+    if whole > covered.saturating_mul(4).max(BLOCK_BYTES_ALWAYS_ALLOWED) {
+        return Err(decode_err(
+            name,
+            format!(
+                "OpenEXR: blocks of {block_w}×{block_h} pixels ({whole} bytes) are far larger than \
+                 the {width}×{height} image: the header is corrupt"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// Images of fewer pixels than this are decompressed on the calling thread: a thread pool costs

@@ -446,6 +446,26 @@ fn a_large_exr_decodes_in_parallel_to_the_same_texels() {
     assert_same(&src, &back);
 }
 
+/// A small OpenEXR file whose header claims tiles millions of pixels tall over its 64×64 image is
+/// refused from the header, before the decoder allocates a block of that size.
+#[test]
+fn exr_tiles_far_larger_than_the_image_are_refused_from_the_header() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = pattern_store(dir.path(), 64, 64, fmt(3, SampleType::F32));
+    let path = dir.path().join("honest.exr");
+    write_image(&src, &path, &EncodeOptions::default()).unwrap();
+    // Tiles larger than a small image are honest, and read.
+    assert_same(&src, &decode_to_store(&file(&path), dir.path()).unwrap());
+    let mut bytes = std::fs::read(&path).unwrap();
+    let key = b"tiles\0tiledesc\0";
+    let at = bytes.windows(key.len()).position(|w| w == key).expect("a tile description");
+    // The attribute's size (4 bytes), then the tile width and height.
+    let height = at + key.len() + 8;
+    bytes[height..height + 4].copy_from_slice(&3_000_000u32.to_le_bytes());
+    let err = expect_err(dir.path(), "tall-tiles.exr", &bytes);
+    assert!(err.to_string().contains("far larger than the 64×64 image"), "{err}");
+}
+
 #[test]
 fn scanline_f16_exr_is_read() {
     use exr::block::UncompressedBlock;
