@@ -238,14 +238,20 @@ fn assert_nothing_or_complete(cwd: &Path, dir: &str) {
 /// When the signals land after the run has started: at once, then at growing delays.
 const SIGNAL_DELAYS_MS: [u64; 5] = [0, 200, 500, 1000, 2000];
 
+/// A folder with a 20,000-face scan (`r/`) long enough to interrupt, and an empty `work/`.
+fn scan_with_a_work_folder() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    synth(dir.path(), "r", "20000", "1024", "obj");
+    std::fs::create_dir(dir.path().join("work")).unwrap();
+    dir
+}
+
 /// SIGTERM and SIGINT stop the run cleanly whatever moment they land: exit 143 or 130 (or 0 if
 /// the run was done), the old set or the whole new one, an "interrupted" report, no stray file.
 #[test]
 fn signals_leave_a_whole_set_and_no_stray_file() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = scan_with_a_work_folder();
     let d = dir.path();
-    synth(d, "r", "20000", "1024", "obj");
-    std::fs::create_dir(d.join("work")).unwrap();
     for (k, &ms) in SIGNAL_DELAYS_MS.iter().enumerate() {
         let out_dir = format!("t{k}");
         let report = format!("{out_dir}.json");
@@ -284,10 +290,8 @@ fn signals_leave_a_whole_set_and_no_stray_file() {
 /// the new one, no tile file stays, and the next run clears what the killed one left.
 #[test]
 fn kills_leave_a_whole_set_and_the_next_run_clears_the_rest() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = scan_with_a_work_folder();
     let d = dir.path();
-    synth(d, "r", "20000", "1024", "obj");
-    std::fs::create_dir(d.join("work")).unwrap();
     for (k, &ms) in SIGNAL_DELAYS_MS.iter().enumerate() {
         let out_dir = format!("k{k}");
         let mut child =

@@ -23,6 +23,7 @@ use exr::meta::attribute::{LevelMode, LineOrder, TileDescription};
 use exr::meta::header::Header;
 use exr::meta::{BlockDescription, MetaData};
 use exr::prelude::f16;
+use rayon::prelude::*;
 use smallvec::smallvec;
 
 use super::{Opened, check_plausible, decode_err};
@@ -219,15 +220,20 @@ fn check_block_size(
     Ok(())
 }
 
-/// Images of fewer pixels than this are decompressed on the calling thread: a thread pool costs
-/// more than it saves on them.
+/// Images of fewer pixels than this are decompressed on the calling thread: fanning blocks out
+/// costs more than it saves on them.
 const PARALLEL_MIN_PIXELS: u64 = 1 << 20;
 
-/// Decompresses every chunk of `chunks` into `insert`. The exr crate's own parallel decoder
-/// builds a pool of one thread per core for every image, whatever `--threads` says; here a
-/// small image stays on this thread, and a large one gets a pool no wider than the run's.
+/// Blocks decompressed side by side per thread of the pool: enough to keep every thread busy,
+/// few enough that a batch of decompressed blocks stays small.
+const BLOCKS_PER_THREAD: usize = 4;
+
+/// Decompresses every chunk of `chunks` into `insert`, in file order. Large images read a batch
+/// of compressed chunks, decompress it on the run's own thread pool (so `--threads` holds), and
+/// insert the blocks in order. The exr crate's parallel decoder instead builds a pool of its own
+/// for every image, one thread per core, whose threads outlive the image.
 fn decompress<R: ChunksReader>(
-    chunks: R,
+    mut chunks: R,
     pixels: u64,
     insert: &mut impl FnMut(&MetaData, UncompressedBlock) -> exr::error::UnitResult,
 ) -> exr::error::UnitResult {
@@ -235,15 +241,26 @@ fn decompress<R: ChunksReader>(
     if threads <= 1 || pixels < PARALLEL_MIN_PIXELS {
         return chunks.decompress_sequential(false, insert);
     }
-    let pool = || rayon::ThreadPoolBuilder::new().num_threads(threads).build();
-    match exr::block::reader::ParallelBlockDecompressor::new_with_thread_pool(chunks, false, pool) {
-        Ok(mut blocks) => {
-            while let Some(block) = blocks.next() {
-                insert(blocks.meta_data(), block?)?;
+    let meta = chunks.meta_data().clone();
+    let mut batch = Vec::with_capacity(threads * BLOCKS_PER_THREAD);
+    loop {
+        batch.clear();
+        while batch.len() < batch.capacity() {
+            match chunks.read_next_chunk() {
+                Some(chunk) => batch.push(chunk?),
+                None => break,
             }
-            Ok(())
         }
-        Err(chunks) => chunks.decompress_sequential(false, insert),
+        if batch.is_empty() {
+            return Ok(());
+        }
+        let blocks: Vec<_> = batch
+            .par_drain(..)
+            .map(|chunk| UncompressedBlock::decompress_chunk(chunk, &meta, false))
+            .collect();
+        for block in blocks {
+            insert(&meta, block?)?;
+        }
     }
 }
 
