@@ -99,14 +99,20 @@ fn init_logging(verbose: u8, quiet: bool) {
     };
     // `Targets` reads `SCANATLAS_LOG` directives such as `info` or `scanatlas_core=debug,warn`
     // without the regular-expression engine that `EnvFilter` would add to the build.
-    let from_env = std::env::var("SCANATLAS_LOG")
-        .ok()
-        .and_then(|directives| directives.parse::<Targets>().ok());
-    let filter = from_env.unwrap_or_else(|| level.parse::<Targets>().unwrap_or_default());
+    let from_env = std::env::var("SCANATLAS_LOG").ok().map(|d| (d.parse::<Targets>(), d));
+    let filter = match &from_env {
+        Some((Ok(targets), _)) => targets.clone(),
+        _ => level.parse::<Targets>().unwrap_or_default(),
+    };
     tracing_subscriber::fmt()
         .with_writer(std::io::stderr)
         .with_target(false)
         .finish()
         .with(filter)
         .init();
+    if let Some((Err(e), directives)) = from_env {
+        tracing::warn!(
+            "SCANATLAS_LOG={directives:?} is not a list of log directives ({e}); using {level}"
+        );
+    }
 }

@@ -591,3 +591,32 @@ fn convert_refuses_a_sheet_too_wide_for_webp_before_any_work() {
     assert_usage_failure(&out, "at most 16383");
     assert!(!d.join("o").exists(), "a refused conversion made its output folder");
 }
+
+/// `SCANATLAS_LOG` picks log levels per crate; a value that is not a list of directives is
+/// named in a warning, and the run goes on at the level of its flags.
+#[test]
+fn log_directives_filter_by_crate_and_a_bad_one_is_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    assert!(scanatlas(&["-q", "synth", "s", "--faces", "200"], d).status.success());
+    let run = |directives: &str, out: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_scanatlas"))
+            .args(["defrag", "s/scan.obj", "-o", out])
+            .current_dir(d)
+            .env("SCANATLAS_LOG", directives)
+            .output()
+            .unwrap()
+    };
+    let info = run("scanatlas_cli=info", "a/o.obj");
+    assert!(info.status.success());
+    assert!(String::from_utf8_lossy(&info.stderr).contains("INFO"));
+    let quiet = run("scanatlas_core=info", "b/o.obj");
+    assert!(!String::from_utf8_lossy(&quiet.stderr).contains("INFO"));
+    let bad = run("scanatlas=frob", "c/o.obj");
+    assert!(bad.status.success());
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(
+        err.contains("SCANATLAS_LOG=\"scanatlas=frob\" is not a list of log directives"),
+        "{err}"
+    );
+}
