@@ -206,7 +206,8 @@ fn check_block_size(
             (u64::from(width), header.compression.scan_lines_per_block() as u64)
         }
     };
-    let whole = block_w.saturating_mul(block_h).saturating_mul(bytes_per_pixel);
+    // The crate's own bound on what it allocates for one block.
+    let whole = header.max_block_byte_size() as u64;
     let covered = block_w.min(u64::from(width)) * block_h.min(u64::from(height)) * bytes_per_pixel;
     if whole > covered.saturating_mul(4).max(BLOCK_BYTES_ALWAYS_ALLOWED) {
         return Err(decode_err(
