@@ -17,6 +17,7 @@ use crate::geometry::{DEGENERATE_AREA2, Tri2, signed_area2};
 use crate::index::UvId;
 use crate::model::Model;
 use crate::texture::coords::flip_v;
+use crate::union_find::UnionFind;
 
 /// How a format stores a UV pair.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -76,22 +77,8 @@ fn lost(before: f64, after: f64, side: f64) -> bool {
 /// stored as `how`, or `None` when the rounding costs no face anything (nearly always). Faces
 /// whose every nudge within `MAX_STEPS` would cost another face keep the plain rounding.
 pub(crate) fn keep_orientation(model: &Model, how: Stored) -> Option<Vec<[f64; 2]>> {
-    // Sheet size per material; without a known size the normalized units stand in (the sign is
-    // still kept).
-    let material_size: Vec<[f64; 2]> = model
-        .materials
-        .iter()
-        .map(|m| {
-            let size = m.sheet.and_then(|s| model.sheets.get(s.idx())).and_then(|s| s.size);
-            size.map_or([1.0, 1.0], |(w, h)| [f64::from(w), f64::from(h)])
-        })
-        .collect();
-    let size_of = |f: usize| -> [f64; 2] {
-        model.faces[f]
-            .material
-            .and_then(|m| material_size.get(m.idx()).copied())
-            .unwrap_or([1.0; 2])
-    };
+    let sizes = face_sizes(model);
+    let size_of = |f: usize| sizes[f];
     let uvs = &model.uvs;
     // What a reader gets back for every UV record (the writer rounds each record once).
     let read_back: Vec<[f64; 2]> = uvs.iter().map(|&uv| how.load(how.store(uv))).collect();
@@ -153,17 +140,7 @@ pub(crate) fn keep_orientation(model: &Model, how: Stored) -> Option<Vec<[f64; 2
         !lost(before, after, 0.0)
             || (before.abs() < DEGENERATE_AREA2 && !lost(before, after, side(f)))
     };
-    // Candidate moves, shortest first, in a fixed order.
-    let mut moves: Vec<(i32, i32)> = Vec::new();
-    for n in 1..=MAX_STEPS {
-        for du in -n..=n {
-            for dv in -n..=n {
-                if du.abs().max(dv.abs()) == n {
-                    moves.push((du, dv));
-                }
-            }
-        }
-    }
+    let moves = moves();
     let mut kept_before: Vec<bool> = Vec::new();
     for &f in &bad {
         if keeps(&stored, f) {
@@ -193,6 +170,140 @@ pub(crate) fn keep_orientation(model: &Model, how: Stored) -> Option<Vec<[f64; 2
         out[u as usize] = how.load(s);
     }
     Some(out)
+}
+
+/// Each face's sheet size in texels; without a known size the normalized units stand in (the
+/// sign is still kept).
+fn face_sizes(model: &Model) -> Vec<[f64; 2]> {
+    let material_size: Vec<[f64; 2]> = model
+        .materials
+        .iter()
+        .map(|m| {
+            let size = m.sheet.and_then(|s| model.sheets.get(s.idx())).and_then(|s| s.size);
+            size.map_or([1.0, 1.0], |(w, h)| [f64::from(w), f64::from(h)])
+        })
+        .collect();
+    model
+        .faces
+        .iter()
+        .map(|face| {
+            face.material.and_then(|m| material_size.get(m.idx()).copied()).unwrap_or([1.0; 2])
+        })
+        .collect()
+}
+
+/// Candidate corner moves in f32 steps, shortest first, in a fixed order.
+fn moves() -> Vec<(i32, i32)> {
+    let mut moves = Vec::new();
+    for n in 1..=MAX_STEPS {
+        for du in -n..=n {
+            for dv in -n..=n {
+                if du.abs().max(dv.abs()) == n {
+                    moves.push((du, dv));
+                }
+            }
+        }
+    }
+    moves
+}
+
+/// A chart's side: the sign of its net signed area. A reader (and the evaluator) counts a face
+/// facing against its chart's side as turned over, so a folded chart whose net area is nearly
+/// zero must not change side through the rounding either, even when each of its faces keeps
+/// its own orientation.
+///
+/// `uvs` are the values to write (f64, already nudged per face); the returned values are
+/// `uvs` with corners of charts that would change side nudged by a few f32 steps, or `None`
+/// when no chart changes side.
+pub(crate) fn keep_chart_sides(
+    model: &Model,
+    uvs: &[[f64; 2]],
+    how: Stored,
+) -> Option<Vec<[f64; 2]>> {
+    let sizes = face_sizes(model);
+    let corners = |f: usize| model.faces[f].uv.filter(|t| t.iter().all(|u| u.idx() < uvs.len()));
+    let chart = edge_charts(model, uvs.len());
+    let mut net_before = vec![0.0f64; model.faces.len()];
+    let mut net_after = vec![0.0f64; model.faces.len()];
+    let mut stored: Vec<[f32; 2]> = uvs.iter().map(|&uv| how.store(uv)).collect();
+    let area_at = |stored: &[[f32; 2]], f: usize, t: [UvId; 3]| {
+        area2(t.map(|u| how.load(stored[u.idx()])), sizes[f])
+    };
+    for f in 0..model.faces.len() {
+        let Some(t) = corners(f) else { continue };
+        let before = area2(t.map(|u| uvs[u.idx()]), sizes[f]);
+        if before.is_finite() {
+            net_before[chart[f] as usize] += before;
+            net_after[chart[f] as usize] += area_at(&stored, f, t);
+        }
+    }
+    let turned =
+        |c: usize, net_after: f64| net_before[c] != 0.0 && net_before[c] * net_after <= 0.0;
+    let mut members: HashMap<u32, Vec<u32>> = HashMap::new();
+    for f in 0..model.faces.len() {
+        if corners(f).is_some() && turned(chart[f] as usize, net_after[chart[f] as usize]) {
+            members.entry(chart[f]).or_default().push(f as u32);
+        }
+    }
+    if members.is_empty() {
+        return None;
+    }
+    let moves = moves();
+    let mut charts: Vec<(&u32, &Vec<u32>)> = members.iter().collect();
+    charts.sort_unstable();
+    for (&c, faces) in charts {
+        // Faces whose own orientation a move must not cost: every face of the chart that has one.
+        let keeps = |stored: &[[f32; 2]], f: u32| {
+            let t = corners(f as usize).expect("members have corners");
+            let before = area2(t.map(|u| uvs[u.idx()]), sizes[f as usize]);
+            !lost(before, area_at(stored, f as usize, t), 0.0)
+        };
+        let kept_before: Vec<bool> = faces.iter().map(|&f| keeps(&stored, f)).collect();
+        let net = |stored: &[[f32; 2]]| -> f64 {
+            faces.iter().map(|&f| area_at(stored, f as usize, corners(f as usize).unwrap())).sum()
+        };
+        // Grow the faces on the chart's side: moving one of their corners is the smallest change.
+        let side = net_before[c as usize].signum();
+        'fix: for &(du, dv) in &moves {
+            for &f in faces {
+                let t = corners(f as usize).unwrap();
+                if area2(t.map(|u| uvs[u.idx()]), sizes[f as usize]) * side <= 0.0 {
+                    continue;
+                }
+                for u in t {
+                    let old = stored[u.idx()];
+                    stored[u.idx()] = [step(old[0], du), step(old[1], dv)];
+                    let ok = !turned(c as usize, net(&stored))
+                        && faces.iter().zip(&kept_before).all(|(&g, &k)| !k || keeps(&stored, g));
+                    if ok {
+                        break 'fix;
+                    }
+                    stored[u.idx()] = old;
+                }
+            }
+        }
+    }
+    Some(stored.iter().map(|&s| how.load(s)).collect())
+}
+
+/// Each face's chart: the smallest face joined to it through shared UV edges (by UV index).
+fn edge_charts(model: &Model, n_uvs: usize) -> Vec<u32> {
+    let mut edges: Vec<(u64, u32)> = Vec::with_capacity(3 * model.faces.len());
+    for (f, face) in model.faces.iter().enumerate() {
+        let Some(t) = face.uv.filter(|t| t.iter().all(|u| u.idx() < n_uvs)) else { continue };
+        for k in 0..3 {
+            let (a, b) = (t[k].0, t[(k + 1) % 3].0);
+            edges.push(((u64::from(a.min(b)) << 32) | u64::from(a.max(b)), f as u32));
+        }
+    }
+    edges.sort_unstable();
+    let mut charts = UnionFind::new(model.faces.len());
+    for pair in edges.windows(2) {
+        if pair[0].0 == pair[1].0 {
+            charts.union(pair[0].1 as usize, pair[1].1 as usize);
+        }
+    }
+    charts.flatten()
 }
 
 #[cfg(test)]
@@ -252,5 +363,55 @@ mod tests {
         let mut m = sliver_model([3000.3, 2000.7]);
         m.uvs[2] = [m.uvs[2][0], m.uvs[2][1] + 0.01];
         assert!(keep_orientation(&m, Stored::FlippedV).is_none());
+    }
+
+    /// Two faces folded over their shared edge, at `o` on a 4096-texel sheet: their doubled
+    /// areas are +0.5 and −(0.5 − 1e-6) texel², so the chart's net side is a millionth of a
+    /// texel² on the positive side, far below what f32 rounding there moves.
+    fn folded_chart(o: [f64; 2]) -> Model {
+        let w = 4096.0;
+        let texel = [[0.0, 0.0], [1.0, 0.0], [0.5, 0.5], [0.6, 0.5 - 1e-6]];
+        let mut m = sliver_model([0.0; 2]);
+        m.positions = vec![[0.0; 3]; 4];
+        m.uvs = texel.iter().map(|t| [(o[0] + t[0]) / w, (o[1] + t[1]) / w]).collect();
+        m.faces.push(Face { uv: Some([UvId(1), UvId(0), UvId(3)]), ..m.faces[0] });
+        m
+    }
+
+    fn net_side(m: &Model, uvs: &[[f64; 2]]) -> f64 {
+        m.faces.iter().map(|f| area2(f.uv.unwrap().map(|u| uvs[u.idx()]), [4096.0; 2])).sum()
+    }
+
+    #[test]
+    fn a_folded_chart_keeps_its_side_through_the_rounding() {
+        for how in [Stored::Plain, Stored::FlippedV] {
+            let rounded = |uvs: &[[f64; 2]]| -> Vec<[f64; 2]> {
+                uvs.iter().map(|&uv| how.load(how.store(uv))).collect()
+            };
+            let m = (0..200)
+                .map(|k| folded_chart([3000.3, 2000.0 + 0.0137 * f64::from(k)]))
+                .find(|m| net_side(m, &rounded(&m.uvs)) <= 0.0)
+                .expect("the rounding turns the chart's side somewhere along the row");
+            assert!(net_side(&m, &m.uvs) > 0.0);
+            assert!(keep_orientation(&m, how).is_none(), "each face alone survives the rounding");
+            let kept = keep_chart_sides(&m, &m.uvs, how).expect("the chart needs a nudge");
+            let back = rounded(&kept);
+            assert!(net_side(&m, &back) > 0.0, "{how:?}: {}", net_side(&m, &back));
+            for (face, sign) in m.faces.iter().zip([1.0, -1.0]) {
+                let t = face.uv.unwrap();
+                assert!(area2(t.map(|u| back[u.idx()]), [4096.0; 2]) * sign > 0.4);
+            }
+            for (k, t) in kept.iter().zip(&m.uvs) {
+                let d = [(k[0] - t[0]) * 4096.0, (k[1] - t[1]) * 4096.0];
+                assert!(d[0].abs() < 1e-2 && d[1].abs() < 1e-2, "{d:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn charts_the_rounding_keeps_on_their_side_are_left_alone() {
+        let mut m = folded_chart([3000.3, 2000.7]);
+        m.uvs[3][1] -= 0.1 / 4096.0;
+        assert!(keep_chart_sides(&m, &m.uvs, Stored::FlippedV).is_none());
     }
 }

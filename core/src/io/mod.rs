@@ -278,10 +278,15 @@ pub fn write_model(model: &Model, path: &Path, opts: &WriteOptions) -> Result<()
         ModelFormat::Gltf | ModelFormat::Glb => Some(f32_uvs::Stored::FlippedV),
         ModelFormat::Ply => Some(f32_uvs::Stored::Plain),
     };
-    let kept = stored.and_then(|how| f32_uvs::keep_orientation(model, how)).map(|uvs| {
-        let mut m = model.clone();
-        m.uvs = uvs;
-        m
+    let kept = stored.and_then(|how| {
+        let faces_kept = f32_uvs::keep_orientation(model, how);
+        let uvs = faces_kept.as_deref().unwrap_or(&model.uvs);
+        let charts_kept = f32_uvs::keep_chart_sides(model, uvs, how);
+        charts_kept.or(faces_kept).map(|uvs| {
+            let mut m = model.clone();
+            m.uvs = uvs;
+            m
+        })
     });
     let model = kept.as_ref().unwrap_or(model);
     match format {
