@@ -43,6 +43,8 @@ pub enum WarningCode {
     TexelScaleBelowOne,
     /// A sheet of a `--sheet-size` run is larger than the fixed size (a chart does not fit it).
     SheetSizeExceeded,
+    /// The written UVs are further from the input's than the distortion budget g allows.
+    DistortionOverBudget,
 }
 
 impl WarningCode {
@@ -63,6 +65,7 @@ impl WarningCode {
             Self::StrayUvs => "stray-uvs",
             Self::TexelScaleBelowOne => "texel-scale-below-one",
             Self::SheetSizeExceeded => "sheet-size-exceeded",
+            Self::DistortionOverBudget => "distortion-over-budget",
         }
     }
 }

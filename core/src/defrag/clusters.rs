@@ -332,7 +332,7 @@ fn run_cluster(
     let mut fe = master.fork(&mut topo);
     let scope: Vec<bool> = cluster.iter().map(|&c| c == k).collect();
     // The cluster may spend its share of what is left of the atlas-wide budget g.
-    let budget = fe.opts.global_distortion * fe.energy_den;
+    let budget = fe.opts.merge_budget() * fe.energy_den;
     let allowance = (budget - fe.energy_num).max(0.0) * share;
     let offset = budget - allowance;
     fe.energy_num = offset;

@@ -61,7 +61,7 @@ pub use greedy::merge_charts;
 pub use output::merged_model;
 pub use state::MergedLayout;
 pub use unfold::UnfoldReport;
-pub use untangle::{UntangleOptions, UntangleReport, untangle_charts};
+pub use untangle::{EnergyBudget, UntangleOptions, UntangleReport, untangle_charts};
 pub use zero_area::ZeroAreaReport;
 
 use crate::plugin::Veto;
@@ -80,7 +80,8 @@ pub struct MergeOptions {
     /// d: the largest area-weighted mean isometric energy allowed in an optimization area.
     pub local_distortion: f64,
     /// g: the largest area-weighted mean isometric energy of the whole atlas (a budget for the
-    /// whole run).
+    /// whole run: the merge spends [`MERGE_BUDGET_SHARE`] of it, and the repairs after it the
+    /// rest).
     pub global_distortion: f64,
     /// α: a fused vertex displaced by δ frees every vertex within α·δ of it along UV edges.
     pub alpha: f64,
@@ -148,6 +149,22 @@ pub struct MergeOptions {
     /// seams, and rescuing every refused attempt costs much merge time for a handful of merges
     /// and no shorter border.
     pub rescue_share: f64,
+}
+
+/// The share of the budget g that the merge may spend. The repairs of the charts after the merge
+/// change UVs too: the untangling may bring the atlas up to [`UNTANGLE_BUDGET_SHARE`] of g, and
+/// the texel-clash separation of the packing spends the last part, so that the UVs written hold g.
+pub const MERGE_BUDGET_SHARE: f64 = 0.99;
+
+/// The share of the budget g that the atlas may reach after the untangling (see
+/// [`MERGE_BUDGET_SHARE`]).
+pub const UNTANGLE_BUDGET_SHARE: f64 = 0.995;
+
+impl MergeOptions {
+    /// The most the merge may bring the atlas's mean energy to.
+    pub fn merge_budget(&self) -> f64 {
+        self.global_distortion * MERGE_BUDGET_SHARE
+    }
 }
 
 impl Default for MergeOptions {

@@ -502,7 +502,7 @@ fn folded_grid() -> Model {
 fn untangle_as_one_chart(t: &mut Topology, anchored: bool) -> UntangleReport {
     let n = t.face_chart.len();
     let mut solvers = [Box::new(Keep) as Box<dyn LocalSolver>];
-    untangle_charts(t, &vec![0; n], 1, &vec![anchored; n], &mut solvers, &Default::default())
+    untangle_charts(t, &vec![0; n], 1, &vec![anchored; n], &mut solvers, &Default::default(), None)
 }
 
 fn folded_and_overlapping(t: &Topology) -> (usize, usize) {
@@ -537,6 +537,31 @@ fn a_folded_fan_is_untangled_and_the_rest_stays() {
     }
     let corner = t.uv_pos.iter().position(|&p| p == [10.0, 10.0]).expect("corner vertex");
     assert_eq!(before[corner], t.uv_pos[corner]);
+}
+
+#[test]
+fn repairs_beyond_the_distortion_budget_are_undone() {
+    let m = folded_grid();
+    let run = |limit: f64| {
+        let mut t = prepare(&m);
+        let before = t.uv_pos.clone();
+        let n = t.face_chart.len();
+        let mut solvers = [Box::new(Keep) as Box<dyn LocalSolver>];
+        let budget = Some(EnergyBudget { mean_before: 0.0, limit });
+        let opts = UntangleOptions::default();
+        let r =
+            untangle_charts(&mut t, &vec![0; n], 1, &vec![false; n], &mut solvers, &opts, budget);
+        (r, before == t.uv_pos)
+    };
+    // The input is the fold itself, so unfolding it costs energy: with no room, the chart is left
+    // exactly as it was, folds included.
+    let (r, unchanged) = run(0.0);
+    assert_eq!((r.charts_undone_for_budget, r.faces_moved, r.folds_flipped), (1, 0, 0), "{r:?}");
+    assert!(unchanged && r.folded_faces_left > 0, "{r:?}");
+    // With room enough, the same repair stays.
+    let (r, unchanged) = run(1.0);
+    assert_eq!((r.charts_undone_for_budget, r.folded_faces_left), (0, 0), "{r:?}");
+    assert!(!unchanged);
 }
 
 #[test]
@@ -677,6 +702,7 @@ fn the_repair_gives_the_same_layout_whatever_the_number_of_workers() {
                 &vec![false; n],
                 &mut solvers,
                 &Default::default(),
+                None,
             );
             (t.uv_pos, UntangleReport { repair_ms: 0.0, ..r })
         })

@@ -5,7 +5,7 @@
 use std::collections::{HashMap, HashSet};
 
 use super::PipelineError;
-use crate::defrag::{MergedLayout, UntangleOptions, UntangleReport, untangle_charts};
+use crate::defrag::{EnergyBudget, MergedLayout, UntangleOptions, UntangleReport, untangle_charts};
 use crate::index::NONE;
 use crate::model::Model;
 use crate::pack::palette::{self, PaletteFace};
@@ -86,9 +86,11 @@ impl PackingCharts {
         pack: &PackOptions,
         solvers: &mut [Box<dyn LocalSolver>],
         opts: &UntangleOptions,
+        budget: EnergyBudget,
     ) -> Result<UntangleReport, PipelineError> {
         let anchored = anchor_faces(&self.layout_input(topo, input_sheet_sizes), pack)?;
-        Ok(untangle_charts(topo, &self.face_chart, self.n, &anchored, solvers, opts))
+        let (face_chart, n) = (&self.face_chart, self.n);
+        Ok(untangle_charts(topo, face_chart, n, &anchored, solvers, opts, Some(budget)))
     }
 
     /// Takes the faces without input UV area that no face with area holds by an input UV edge out

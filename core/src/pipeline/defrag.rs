@@ -14,8 +14,8 @@ use super::context::{RunContext, RunPaths};
 use super::decode_ahead::DecodeAhead;
 use super::emit::{packed_model, synthesize};
 use crate::defrag::{
-    MergeOptions, MergeReport, MergedLayout, UntangleOptions, UntangleReport,
-    merge_charts_parallel, merged_model,
+    EnergyBudget, MergeOptions, MergeReport, MergedLayout, UNTANGLE_BUDGET_SHARE, UntangleOptions,
+    UntangleReport, merge_charts_parallel, merged_model,
 };
 use crate::metrics::{AtlasStats, StatsOptions, atlas_stats};
 use crate::model::Model;
@@ -164,6 +164,10 @@ pub struct DefragReport {
     /// Atlas figures of the input model and of the written output model, read back.
     pub input_stats: AtlasStats,
     pub output_stats: AtlasStats,
+    /// The mean isometric distortion of the written UVs against the input's, weighted by input
+    /// texel area (the merge's `energy_after` plus what the repairs after it and the f32 write
+    /// added); the budget `options.global_distortion` holds for it.
+    pub distortion: f64,
     pub times: StageTimes,
     /// What the reader found that degrades the input or the written output (see `warnings`).
     pub warnings: Vec<crate::warnings::Warning>,
@@ -257,14 +261,46 @@ impl Emitted {
     }
 }
 
-/// The atlas figures of the written output, read back from the destination, with what its
-/// reader noted about it.
-fn output_stats(
+/// What the metrics stage reads back from the written output.
+struct Written {
+    stats: AtlasStats,
+    /// The mean distortion of the written UVs against the input's (see
+    /// [`crate::report::compare::mean_energy`]).
+    distortion: f64,
+    /// What its reader noted about it.
+    warnings: Vec<Warning>,
+}
+
+/// The atlas figures and the distortion of the written output, read back from the destination.
+fn written_figures(
+    input: &Model,
     output: &Path,
     opts: &StatsOptions,
-) -> Result<(AtlasStats, Vec<crate::warnings::Warning>), PipelineError> {
+    texel_scale: f64,
+) -> Result<Written, PipelineError> {
+    use crate::report::compare::{Side, mean_energy};
     let written = super::load_model(output)?;
-    Ok((atlas_stats(&written, &super::sheet_sizes(&written), opts), written.warnings))
+    let sizes = super::sheet_sizes(&written);
+    let before = Side { model: input, sizes: &super::sheet_sizes(input) };
+    let distortion = mean_energy(&before, &Side { model: &written, sizes: &sizes }, texel_scale);
+    Ok(Written {
+        stats: atlas_stats(&written, &sizes, opts),
+        distortion,
+        warnings: written.warnings,
+    })
+}
+
+/// A warning when the written UVs are further from the input's than the budget g allows.
+fn budget_warning(distortion: f64, g: f64) -> Option<Warning> {
+    (distortion > g).then(|| {
+        Warning::new(
+            WarningCode::DistortionOverBudget,
+            format!(
+                "the written UVs' mean distortion against the input's is {distortion:.5}, over \
+                 the budget --global-distortion {g}"
+            ),
+        )
+    })
 }
 
 /// Runs the pipeline on `input`, writing `output` (and its sheets `<stem>_<k>.<ext>` beside it),
@@ -325,7 +361,14 @@ pub fn defrag_with_progress(
     } else {
         let mut charts = PackingCharts::new(&loaded.model, &topo, &layout);
         let mut run = Run { loaded: &mut loaded, plugins: &mut plugins, cfg, ctx: &ctx };
-        run.pack_and_texture(&mut topo, &mut charts, merge.uv_border_after, &mut times, progress)?
+        let merged = Merged {
+            border_len: merge.uv_border_after,
+            budget: EnergyBudget {
+                mean_before: merge.energy_after,
+                limit: merge_opts.global_distortion * UNTANGLE_BUDGET_SHARE,
+            },
+        };
+        run.pack_and_texture(&mut topo, &mut charts, merged, &mut times, progress)?
     };
     let Loaded { model, stats_opts, input_stats, .. } = loaded;
     ctx.checkpoint()?;
@@ -339,11 +382,12 @@ pub fn defrag_with_progress(
 
     progress(DefragStage::Metrics);
     let t = Instant::now();
-    let (output_stats, output_warnings) = output_stats(output, &stats_opts)?;
+    let written = written_figures(&model, output, &stats_opts, cfg.pack.texel_scale)?;
     let (input_stats, _) = input_stats.finish();
-    let pack_warnings = emitted.pack.as_ref().map(sheet_warnings).unwrap_or_default();
+    let mut pack_warnings = emitted.pack.as_ref().map(sheet_warnings).unwrap_or_default();
+    pack_warnings.extend(budget_warning(written.distortion, merge_opts.global_distortion));
     let warnings =
-        [&model.warnings[..], &prepare_warnings[..], &output_warnings[..], &pack_warnings[..]]
+        [&model.warnings[..], &prepare_warnings[..], &written.warnings[..], &pack_warnings[..]]
             .concat();
     times.metrics_ms = ms(t);
     times.total_ms = ms(t_all);
@@ -364,7 +408,8 @@ pub fn defrag_with_progress(
         resample: emitted.resample,
         sheets,
         input_stats,
-        output_stats,
+        output_stats: written.stats,
+        distortion: written.distortion,
         times,
         warnings,
     })
@@ -389,6 +434,13 @@ fn preparation_warnings(topo: &Topology) -> Vec<crate::warnings::Warning> {
     warnings
 }
 
+/// What the packing reads of the merge: the UV border length and the distortion budget left.
+#[derive(Clone, Copy)]
+struct Merged {
+    border_len: f64,
+    budget: EnergyBudget,
+}
+
 /// What the packing and texture stages share.
 struct Run<'a> {
     loaded: &'a mut Loaded,
@@ -403,14 +455,14 @@ impl Run<'_> {
         &mut self,
         topo: &mut Topology,
         charts: &mut PackingCharts,
-        border_len: f64,
+        merged: Merged,
         times: &mut StageTimes,
         progress: &mut dyn FnMut(DefragStage),
     ) -> Result<Emitted, PipelineError> {
         progress(DefragStage::Pack);
         let t = Instant::now();
         let (packed, palette, untangle) =
-            pack_stage(topo, charts, self.loaded, self.plugins, self.cfg, border_len)?;
+            pack_stage(topo, charts, self.loaded, self.plugins, self.cfg, merged)?;
         times.pack_ms = ms(t);
         self.ctx.checkpoint()?;
 
@@ -579,19 +631,19 @@ fn pack_stage(
     loaded: &Loaded,
     plugins: &mut Plugins,
     cfg: &DefragConfig,
-    border_len: f64,
+    merged: Merged,
 ) -> Result<(PackedLayout, Palette, Option<UntangleReport>), PipelineError> {
     let sizes = &loaded.input_sheet_sizes;
     let (palette_faces, segments) = charts.take_palette_faces(topo);
     let rigid_split = if cfg.pack.split_rigid_ratio > 0.0 {
-        Some(charts.split_rigid(topo, sizes, &cfg.pack, border_len)?)
+        Some(charts.split_rigid(topo, sizes, &cfg.pack, merged.border_len)?)
     } else {
         None
     };
     let mut untangled = None;
     if let (Some(opts), false) = (&cfg.untangle, plugins.untangle_solvers.is_empty()) {
         let solvers = &mut plugins.untangle_solvers;
-        untangled = Some(charts.untangle(topo, sizes, &cfg.pack, solvers, opts)?);
+        untangled = Some(charts.untangle(topo, sizes, &cfg.pack, solvers, opts, merged.budget)?);
     }
     let packer = plugins.packer.as_ref();
     let mut packed = pack_layout(&charts.layout_input(topo, sizes), packer, &cfg.pack)?;

@@ -219,6 +219,35 @@ pub fn compare(before: &Side, after: &Side) -> Comparison {
     c
 }
 
+/// The mean isometric distortion of `after`'s UVs against `before`'s, weighted by input texel
+/// area, as the merge's budget and the evaluator measure it. `scale` is the texel scale of the
+/// output (its texel coordinates are divided by it, so that a uniform rescale costs nothing).
+/// The sum runs over fixed blocks of faces, so the figure does not depend on the thread count.
+pub fn mean_energy(before: &Side, after: &Side, scale: f64) -> f64 {
+    const BLOCK: usize = 1 << 14;
+    let n = before.model.faces.len();
+    let sums: Vec<(f64, f64)> = (0..n.div_ceil(BLOCK))
+        .into_par_iter()
+        .map(|b| {
+            let (mut num, mut den) = (0.0, 0.0);
+            for f in b * BLOCK..((b + 1) * BLOCK).min(n) {
+                let (Some((_, a)), Some((_, t))) = (before.texels(f), after.texels(f)) else {
+                    continue;
+                };
+                let w = signed_area2(a).abs();
+                let e = isometric_energy(a, t.map(|p| [p[0] / scale, p[1] / scale]));
+                if w > 0.0 && w.is_finite() && e.is_finite() {
+                    num += w * e;
+                    den += w;
+                }
+            }
+            (num, den)
+        })
+        .collect();
+    let (num, den) = sums.iter().fold((0.0, 0.0), |s, x| (s.0 + x.0, s.1 + x.1));
+    if den > 0.0 { num / den } else { 0.0 }
+}
+
 /// Faces per chart of a labelling, one entry per chart, in label order.
 pub fn chart_sizes(labels: &[u32]) -> Vec<u32> {
     let mut count = vec![0u32; labels.len()];

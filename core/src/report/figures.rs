@@ -83,7 +83,7 @@ impl Figures {
             after,
             preserved_faces: r.pack.as_ref().map(|p| p.preserved_faces as u64),
             preserved_area_fraction: r.pack.as_ref().map(|p| p.preserved_area_fraction),
-            mean_distortion: Some(r.merge.energy_after),
+            mean_distortion: Some(r.distortion),
             faces_lost: Some(lost),
             colour: None,
         };

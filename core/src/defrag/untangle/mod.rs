@@ -21,7 +21,10 @@ use crate::topology::Topology;
 use super::DEGENERATE_AREA2;
 use super::unfold::third_corner;
 
+mod budget;
 mod detect;
+
+pub use budget::EnergyBudget;
 
 use detect::{Lists, bbox, boxes_meet, chart_sign, defects, folded, orig, root, tri};
 
@@ -56,8 +59,11 @@ pub struct UntangleReport {
     /// Folded faces left by the region repairs and turned over one of their sides instead (see
     /// [`flip_folds`]).
     pub folds_flipped: u64,
-    /// Faces whose UVs the repairs changed.
+    /// Faces whose UVs the region repairs changed, less those of repairs undone for the budget.
     pub faces_moved: u64,
+    /// Charts whose repairs were undone because they would have taken the atlas over the
+    /// distortion budget (their defects are left as the input had them).
+    pub charts_undone_for_budget: u64,
     /// Overlapping pairs and folded faces left after the repair.
     pub overlapping_pairs_left: u64,
     pub folded_faces_left: u64,
@@ -145,7 +151,8 @@ struct Region {
 /// the regions are repaired one after another in a fixed order: the result does not depend on the
 /// number of solvers or threads. A region whose every check does not pass is left exactly as it
 /// was. The folds left are then turned over a side where they can be ([`flip_folds`]), one chart
-/// after another.
+/// after another. With a `budget`, the repairs of whole charts are then undone, costliest first,
+/// until the atlas's mean energy is within it.
 pub fn untangle_charts(
     t: &mut Topology,
     face_chart: &[u32],
@@ -153,8 +160,10 @@ pub fn untangle_charts(
     anchored: &[bool],
     solvers: &mut [Box<dyn LocalSolver>],
     opts: &UntangleOptions,
+    budget: Option<EnergyBudget>,
 ) -> UntangleReport {
     let t0 = Instant::now();
+    let start = budget.map(|_| t.uv_pos.clone());
     let mut report = UntangleReport::default();
     let lists = Lists::build(t, face_chart, n_charts);
     // Finding the defects is most of the work on charts that have none: look for them in
@@ -223,6 +232,7 @@ pub fn untangle_charts(
                             folds: scratch.folds.clone(),
                             pairs_left: scratch.pairs.len() as u64,
                             changed: false,
+                            undone: false,
                         }
                     })
                     .collect();
@@ -244,9 +254,18 @@ pub fn untangle_charts(
         }
         lefts.extend(left);
     }
+    // The budget: region repairs undone first, then fold turns only within what is left.
+    let mut room = f64::INFINITY;
+    if let (Some(budget), Some(start)) = (budget, &start) {
+        let kept = budget::keep_within_budget(t, start, &lists, &mut lefts, budget);
+        report.charts_undone_for_budget = kept.charts_undone;
+        report.faces_moved = report.faces_moved.saturating_sub(kept.faces_restored);
+        room = kept.room;
+    }
     let mut walk = Walk { stamp: vec![0; face_chart.len()], epoch: 0, queue: Vec::new() };
-    for l in lefts.iter_mut().filter(|l| !l.folds.is_empty()) {
-        let flipped = flip_folds(t, lists.chart(l.chart), &l.folds, l.sign, opts, &mut walk);
+    for l in lefts.iter_mut().filter(|l| !l.folds.is_empty() && !l.undone) {
+        let faces = lists.chart(l.chart);
+        let flipped = flip_folds(t, faces, &l.folds, l.sign, opts, &mut walk, &mut room);
         report.folds_flipped += flipped;
         l.changed = flipped > 0;
     }
@@ -281,6 +300,8 @@ struct ChartLeft {
     /// Overlapping pairs left after the repair, and whether a fold was turned since.
     pairs_left: u64,
     changed: bool,
+    /// Whether its region repairs were undone for the distortion budget.
+    undone: bool,
 }
 
 /// The defects of one chart (see [`defects`]), kept from the search for the repair.
@@ -656,7 +677,9 @@ fn tutte(uv: &mut [[f64; 2]], fixed: &[bool], triangles: &[[u32; 3]], iterations
 /// folds in Meshroom atlases are faces lying turned over onto their neighbour, and a fixed region
 /// outline can never unfold them. A placement is kept only when the face is oriented, within the
 /// local distortion threshold of its original shape, and overlaps no face of the chart; only
-/// sides shared with a neighbour are tried. Returns the faces turned.
+/// sides shared with a neighbour are tried, and a turn that adds energy only within `room` (the
+/// weighted energy the distortion budget has left, which each turn updates). Returns the faces
+/// turned.
 fn flip_folds(
     t: &mut Topology,
     chart_faces: &[u32],
@@ -664,6 +687,7 @@ fn flip_folds(
     sign: f64,
     opts: &UntangleOptions,
     walk: &mut Walk,
+    room: &mut f64,
 ) -> u64 {
     let mut flipped = 0;
     for &f in folds {
@@ -678,13 +702,16 @@ fn flip_folds(
             let x = third_corner(o, k, cur[k], cur[(k + 1) % 3], sign)?;
             let mut tri_new = cur;
             tri_new[(k + 2) % 3] = x;
+            let cost = budget::turn_cost(t, f, tri_new);
             let fits = signed_area2(tri_new) * sign >= DEGENERATE_AREA2
                 && isometric_energy(o, tri_new) <= opts.local_distortion
+                && (cost <= 0.0 || cost <= *room)
                 && !overlaps_chart(t, chart_faces, f, tri_new)
                 && stays_connected(t, f, k, walk);
-            fits.then_some((k, x))
+            fits.then_some((k, x, cost))
         });
-        let Some((k, x)) = placed else { continue };
+        let Some((k, x, cost)) = placed else { continue };
+        *room -= cost;
         t.split_corner(3 * f + (k + 2) % 3, x);
         for h in [3 * f + (k + 1) % 3, 3 * f + (k + 2) % 3] {
             t.cut_uv_side(h);

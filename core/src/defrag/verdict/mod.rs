@@ -137,7 +137,7 @@ impl Engine<'_> {
     /// break it).
     pub(super) fn over_budget(&self, energy_num: f64, out_num: f64, in_num: f64) -> bool {
         let global = (energy_num + out_num - in_num) / self.energy_den.max(f64::MIN_POSITIVE);
-        global.is_nan() || global > self.opts.global_distortion
+        global.is_nan() || global > self.opts.merge_budget()
     }
 
     /// Whether a merge raises the atlas energy by more (`delta`) than `energy_ration` times its
