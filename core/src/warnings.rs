@@ -45,6 +45,10 @@ pub enum WarningCode {
     SheetSizeExceeded,
     /// The written UVs are further from the input's than the distortion budget g allows.
     DistortionOverBudget,
+    /// Faces were cut out of their charts because their texels clashed with another face's.
+    FacesDetached,
+    /// Pairs of faces share texels in the output that they did not share in the input.
+    TexelClashesLeft,
 }
 
 impl WarningCode {
@@ -66,6 +70,8 @@ impl WarningCode {
             Self::TexelScaleBelowOne => "texel-scale-below-one",
             Self::SheetSizeExceeded => "sheet-size-exceeded",
             Self::DistortionOverBudget => "distortion-over-budget",
+            Self::FacesDetached => "faces-detached",
+            Self::TexelClashesLeft => "texel-clashes-left",
         }
     }
 }

@@ -136,8 +136,10 @@ pub struct PackReport {
     /// preservation).
     pub texel_clash_vertices_freed: usize,
     /// Faces cut out of their charts (each packed as a chart of its own, and the atlas packed
-    /// again) because the moves left them clashing.
+    /// again) because the moves left them clashing, and how many times the atlas was packed
+    /// again for them.
     pub faces_detached: usize,
+    pub detach_rounds: usize,
     /// Rigid groups made charts of their own before packing (see `split_rigid_ratio`).
     pub rigid_split: RigidSplitReport,
     /// Faces without input UV area, kept apart from the charts on blocks of their own colour

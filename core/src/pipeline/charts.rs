@@ -151,9 +151,22 @@ impl PackingCharts {
     }
 
     /// The last resort for texel clashes the sub-texel moves could not separate: one face of
-    /// every such pair becomes a chart of its own. Returns how many faces were detached.
-    pub fn detach_clashes(&mut self, topo: &mut Topology, packed: &PackedLayout) -> usize {
-        let detach = faces_to_detach(packed, topo);
+    /// every such pair (`both`: each face of every pair) becomes a chart of its own. Returns how
+    /// many faces were detached.
+    pub fn detach_clashes(
+        &mut self,
+        topo: &mut Topology,
+        packed: &PackedLayout,
+        both: bool,
+    ) -> usize {
+        let detach = if both {
+            let mut faces: Vec<u32> = packed.clashing_pairs.iter().flatten().copied().collect();
+            faces.sort_unstable();
+            faces.dedup();
+            faces
+        } else {
+            faces_to_detach(packed, topo)
+        };
         for &f in &detach {
             topo.detach_faces(&[f]);
             self.face_chart[f as usize] = self.n as u32;

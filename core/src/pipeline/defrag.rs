@@ -384,7 +384,7 @@ pub fn defrag_with_progress(
     let t = Instant::now();
     let written = written_figures(&model, output, &stats_opts, cfg.pack.texel_scale)?;
     let (input_stats, _) = input_stats.finish();
-    let mut pack_warnings = emitted.pack.as_ref().map(sheet_warnings).unwrap_or_default();
+    let mut pack_warnings = emitted.pack.as_ref().map(pack_warnings).unwrap_or_default();
     pack_warnings.extend(budget_warning(written.distortion, merge_opts.global_distortion));
     let warnings =
         [&model.warnings[..], &prepare_warnings[..], &written.warnings[..], &pack_warnings[..]]
@@ -481,6 +481,10 @@ impl Run<'_> {
 /// real texture would only turn a typo into gigabytes of memory and disk.
 pub const MAX_SHEET_SIDE: u32 = 65_536;
 
+/// How many times the atlas is packed again for faces detached for texel clashes; the last
+/// round detaches both faces of every pair left.
+const MAX_DETACH_ROUNDS: usize = 4;
+
 /// The largest padding: far beyond the gutter a resampled chart needs.
 pub const MAX_PADDING: u32 = 4096;
 
@@ -549,18 +553,40 @@ fn option_warnings(pack: &PackOptions) -> Vec<Warning> {
 }
 
 /// What the packing could not honour of the sheet size asked for.
-fn sheet_warnings(report: &PackReport) -> Vec<Warning> {
-    if report.sheets_off_size == 0 {
-        return Vec::new();
+fn pack_warnings(report: &PackReport) -> Vec<Warning> {
+    let mut warnings = Vec::new();
+    if report.sheets_off_size > 0 {
+        warnings.push(Warning::new(
+            WarningCode::SheetSizeExceeded,
+            format!(
+                "--sheet-size: {} of {} output sheets are larger than the fixed size, because a \
+                 chart does not fit on a sheet of that size (charts {:?})",
+                report.sheets_off_size, report.sheets, report.oversized_charts
+            ),
+        ));
     }
-    vec![Warning::new(
-        WarningCode::SheetSizeExceeded,
-        format!(
-            "--sheet-size: {} of {} output sheets are larger than the fixed size, because a chart \
-             does not fit on a sheet of that size (charts {:?})",
-            report.sheets_off_size, report.sheets, report.oversized_charts
-        ),
-    )]
+    if report.faces_detached > 0 {
+        warnings.push(Warning::new(
+            WarningCode::FacesDetached,
+            format!(
+                "{} faces were cut out of their charts into charts of their own ({} more \
+                 packings), because the texels they cover would otherwise be shared with another \
+                 face of their chart",
+                report.faces_detached, report.detach_rounds
+            ),
+        ));
+    }
+    if report.texel_clashes_left > 0 {
+        warnings.push(Warning::new(
+            WarningCode::TexelClashesLeft,
+            format!(
+                "{} pairs of faces share texels in the output that they did not share in the \
+                 input: each shows the other's colour there",
+                report.texel_clashes_left
+            ),
+        ));
+    }
+    warnings
 }
 
 /// Starts what runs beside the next stages: the input's figures for the report on idle CPU
@@ -647,11 +673,18 @@ fn pack_stage(
     }
     let packer = plugins.packer.as_ref();
     let mut packed = pack_layout(&charts.layout_input(topo, sizes), packer, &cfg.pack)?;
-    if !packed.clashing_pairs.is_empty() {
-        let detached = charts.detach_clashes(topo, &packed);
-        let first = packed.report;
+    // A packing of other charts puts every face at another sub-texel offset, so a new packing
+    // may clash where the last did not: detach and pack again until none is left, cutting out
+    // both faces of every pair in the last round (a face alone in its chart clashes with no
+    // other).
+    let mut round = 0;
+    while !packed.clashing_pairs.is_empty() && round < MAX_DETACH_ROUNDS {
+        round += 1;
+        let both = round == MAX_DETACH_ROUNDS;
+        let detached = charts.detach_clashes(topo, &packed, both);
+        let earlier = packed.report;
         packed = pack_layout(&charts.layout_input(topo, sizes), packer, &cfg.pack)?;
-        add_first_attempt(&mut packed.report, &first, detached);
+        add_earlier_attempt(&mut packed.report, &earlier, detached);
     }
     if let Some(split) = rigid_split {
         packed.report.rigid_split = split;
@@ -719,18 +752,20 @@ fn output_format(cfg: &DefragConfig, model: &Model) -> Result<ImageFormat, Pipel
 }
 
 /// Folds the report of the packing before the clash detachment into the final one.
-fn add_first_attempt(r: &mut PackReport, first: &PackReport, detached: usize) {
-    r.faces_detached = detached;
-    r.texel_clashes = first.texel_clashes;
-    r.texel_clash_vertices_moved += first.texel_clash_vertices_moved;
-    for (ms, first_ms) in [
-        (&mut r.anchors_ms, first.anchors_ms),
-        (&mut r.texel_clash_ms, first.texel_clash_ms),
-        (&mut r.footprints_ms, first.footprints_ms),
-        (&mut r.packing_ms, first.packing_ms),
-        (&mut r.finish_ms, first.finish_ms),
+fn add_earlier_attempt(r: &mut PackReport, earlier: &PackReport, detached: usize) {
+    r.faces_detached = earlier.faces_detached + detached;
+    r.detach_rounds = earlier.detach_rounds + 1;
+    // The clashes the first packing found; those left are the last packing's.
+    r.texel_clashes = earlier.texel_clashes;
+    r.texel_clash_vertices_moved += earlier.texel_clash_vertices_moved;
+    for (ms, earlier_ms) in [
+        (&mut r.anchors_ms, earlier.anchors_ms),
+        (&mut r.texel_clash_ms, earlier.texel_clash_ms),
+        (&mut r.footprints_ms, earlier.footprints_ms),
+        (&mut r.packing_ms, earlier.packing_ms),
+        (&mut r.finish_ms, earlier.finish_ms),
     ] {
-        *ms += first_ms;
+        *ms += earlier_ms;
     }
 }
 

@@ -14,7 +14,9 @@
 //! Connectivity is what the written model has: two faces touch when they share both UV vertices
 //! of an edge (the topology does not pair every such side). A group's edge-connected parts are
 //! judged one by one; the pieces of the rest of the chart that only the part held to the chart's
-//! heaviest piece go with it, so each split adds one edge-connected chart, never more.
+//! heaviest piece go with it, unless a shared UV vertex (a corner) joins them to that piece, so
+//! each split adds one chart; a split whose new chart would span far more UV space than the part
+//! itself is refused.
 
 use super::PipelineError;
 use super::charts::layout_input;
@@ -199,10 +201,11 @@ fn parts_to_split(
             else {
                 continue;
             };
-            for (k, piece) in rest.iter().enumerate() {
-                if k != keep {
-                    piece.iter().for_each(|&i| leaving[i] = true);
-                }
+            for k in pieces_held_by_the_part(topo, &adj, &rest, keep) {
+                rest[k].iter().for_each(|&i| leaving[i] = true);
+            }
+            if grows_far(topo, &adj, &part, &leaving) {
+                continue;
             }
             let cut: f64 = rest[keep]
                 .iter()
@@ -227,6 +230,69 @@ fn parts_to_split(
     parts
 }
 
+/// The pieces of `rest` other than `keep` that go with the part: those that no chain of shared
+/// UV vertices joins to the kept piece. A piece that touches the kept piece (or a piece staying
+/// with it) at a corner stays with the chart, however it reaches the part, so that a split never
+/// carries faces far from the part's own place.
+fn pieces_held_by_the_part(
+    topo: &Topology,
+    adj: &ChartAdjacency,
+    rest: &[Vec<usize>],
+    keep: usize,
+) -> Vec<usize> {
+    let verts = |piece: &[usize]| -> Vec<u32> {
+        let mut v: Vec<u32> = piece
+            .iter()
+            .flat_map(|&i| (0..3).map(move |k| topo.corner_uv[3 * adj.faces[i] as usize + k].0))
+            .collect();
+        v.sort_unstable();
+        v.dedup();
+        v
+    };
+    let mut staying = verts(&rest[keep]);
+    let mut leaving: Vec<usize> = (0..rest.len()).filter(|&k| k != keep).collect();
+    // Pieces are few (a part rarely holds more than a handful), so a fixed point over them is
+    // cheap.
+    loop {
+        let before = leaving.len();
+        leaving.retain(|&k| {
+            let v = verts(&rest[k]);
+            let touches = v.iter().any(|x| staying.binary_search(x).is_ok());
+            if touches {
+                staying.extend_from_slice(&v);
+                staying.sort_unstable();
+                staying.dedup();
+            }
+            !touches
+        });
+        if leaving.len() == before {
+            return leaving;
+        }
+    }
+}
+
+/// How many times the part's own UV bounding box the new chart's may cover.
+const MAX_BOX_GROWTH: f64 = 2.0;
+
+/// Whether the faces `leaving` (the part and the pieces going with it) span a UV bounding box
+/// far larger than the part's own: such a chart would pack as mostly empty space.
+fn grows_far(topo: &Topology, adj: &ChartAdjacency, part: &[usize], leaving: &[bool]) -> bool {
+    let bbox = |faces: &mut dyn Iterator<Item = usize>| {
+        let mut b = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+        for i in faces {
+            for k in 0..3 {
+                let p = topo.uv_pos[topo.corner_uv[3 * adj.faces[i] as usize + k].idx()];
+                b = [b[0].min(p[0]), b[1].min(p[1]), b[2].max(p[0]), b[3].max(p[1])];
+            }
+        }
+        // A texel of margin on each side, as the packer's footprints have.
+        (b[2] - b[0] + 2.0).max(0.0) * (b[3] - b[1] + 2.0).max(0.0)
+    };
+    let own = bbox(&mut part.iter().copied());
+    let all = bbox(&mut (0..leaving.len()).filter(|&i| leaving[i]));
+    all > MAX_BOX_GROWTH * own
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -237,6 +303,11 @@ mod tests {
     /// keep quads 0–1 in place, turn quads 4–5 rigidly by 30° about the strip's middle, and
     /// stretch quads 2–3 between them.
     fn bent_strip() -> Topology {
+        bent_strip_with(None)
+    }
+
+    /// The bent strip, with one more face on the given UV (and position) vertices.
+    fn bent_strip_with(extra: Option<[u32; 3]>) -> Topology {
         let mut m = Model::default();
         for y in 0..2 {
             for x in 0..7 {
@@ -257,6 +328,10 @@ mod tests {
                 });
             }
         }
+        if let Some(t) = extra {
+            let material = Some(MaterialId(0));
+            m.faces.push(Face { v: t.map(VertexId), uv: Some(t.map(UvId)), n: None, material });
+        }
         let mut t = Topology::build(&m, &[Some((64, 64))]).expect("valid strip");
         let (s, c) = (30f64.to_radians().sin(), 30f64.to_radians().cos());
         let pivot = [6.4 + 8.0 * 3.0, 6.4];
@@ -273,12 +348,13 @@ mod tests {
     }
 
     fn split(t: &mut Topology, ratio: f64, border: f64) -> (Vec<u32>, RigidSplitReport) {
-        let mut face_chart = vec![0u32; 12];
+        let nf = t.face_chart.len();
+        let mut face_chart = vec![0u32; nf];
         let mut n = 1;
         let opts = PackOptions { split_rigid_ratio: ratio, ..PackOptions::default() };
-        let r =
-            split_rigid_groups(t, &mut face_chart, &mut n, &[0.5; 12], &[(64, 64)], &opts, border)
-                .expect("valid layout");
+        let area = vec![0.5; nf];
+        let r = split_rigid_groups(t, &mut face_chart, &mut n, &area, &[(64, 64)], &opts, border)
+            .expect("valid layout");
         assert_eq!(n, 1 + r.charts_made);
         (face_chart, r)
     }
@@ -309,6 +385,31 @@ mod tests {
         let mut t = bent_strip();
         let (face_chart, r) = split(&mut t, 2.5, 100.0);
         assert_eq!((r.candidates, r.charts_made), (1, 0));
+        assert!(face_chart.iter().all(|&c| c == 0));
+    }
+
+    #[test]
+    fn a_piece_joined_to_the_chart_at_a_corner_stays_with_it() {
+        // A sliver from the turned group's far edge (UV vertices 6 and 13) back to the strip's
+        // first corner (0): it hangs on the group by an edge and on the kept quads by a corner
+        // only. Sent with the group, it would stretch the new chart's box over the whole strip.
+        let mut t = bent_strip_with(Some([6, 13, 0]));
+        let (face_chart, r) = split(&mut t, 1.0, 100.0);
+        assert_eq!((r.charts_made, r.faces_moved), (1, 4), "{r:?}");
+        assert_eq!(face_chart, [0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 0]);
+    }
+
+    #[test]
+    fn a_split_whose_chart_would_span_far_more_than_the_part_is_refused() {
+        // The same sliver without its corner on the kept quads (a UV vertex of its own, placed
+        // where vertex 0 is in the input): it goes with the group and would cover the strip.
+        let mut t = bent_strip_with(Some([6, 13, 0]));
+        let far = t.corner_uv[3 * 12 + 2];
+        let own = t.uv_pos.len();
+        t.split_corner(3 * 12 + 2, t.uv_pos[far.idx()]);
+        assert_eq!(t.corner_uv[3 * 12 + 2].idx(), own);
+        let (face_chart, r) = split(&mut t, 1.0, 100.0);
+        assert_eq!((r.candidates, r.charts_made), (1, 0), "{r:?}");
         assert!(face_chart.iter().all(|&c| c == 0));
     }
 }
