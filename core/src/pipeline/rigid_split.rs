@@ -14,9 +14,10 @@
 //! Connectivity is what the written model has: two faces touch when they share both UV vertices
 //! of an edge (the topology does not pair every such side). A group's edge-connected parts are
 //! judged one by one; the pieces of the rest of the chart that only the part held to the chart's
-//! heaviest piece go with it, unless a shared UV vertex (a corner) joins them to that piece, so
-//! each split adds one chart; a split whose new chart would span far more UV space than the part
-//! itself is refused.
+//! heaviest piece go with it, so each split adds one edge-connected chart, never more. A split
+//! whose new chart would span far more UV space than the part itself (a piece that hangs on the
+//! part by an edge but lies far away, joined to the rest by a corner only) is refused: such a
+//! chart would pack as mostly empty space.
 
 use super::PipelineError;
 use super::charts::layout_input;
@@ -201,8 +202,10 @@ fn parts_to_split(
             else {
                 continue;
             };
-            for k in pieces_held_by_the_part(topo, &adj, &rest, keep) {
-                rest[k].iter().for_each(|&i| leaving[i] = true);
+            for (k, piece) in rest.iter().enumerate() {
+                if k != keep {
+                    piece.iter().for_each(|&i| leaving[i] = true);
+                }
             }
             if grows_far(topo, &adj, &part, &leaving) {
                 continue;
@@ -228,47 +231,6 @@ fn parts_to_split(
         }
     }
     parts
-}
-
-/// The pieces of `rest` other than `keep` that go with the part: those that no chain of shared
-/// UV vertices joins to the kept piece. A piece that touches the kept piece (or a piece staying
-/// with it) at a corner stays with the chart, however it reaches the part, so that a split never
-/// carries faces far from the part's own place.
-fn pieces_held_by_the_part(
-    topo: &Topology,
-    adj: &ChartAdjacency,
-    rest: &[Vec<usize>],
-    keep: usize,
-) -> Vec<usize> {
-    let verts = |piece: &[usize]| -> Vec<u32> {
-        let mut v: Vec<u32> = piece
-            .iter()
-            .flat_map(|&i| (0..3).map(move |k| topo.corner_uv[3 * adj.faces[i] as usize + k].0))
-            .collect();
-        v.sort_unstable();
-        v.dedup();
-        v
-    };
-    let mut staying = verts(&rest[keep]);
-    let mut leaving: Vec<usize> = (0..rest.len()).filter(|&k| k != keep).collect();
-    // Pieces are few (a part rarely holds more than a handful), so a fixed point over them is
-    // cheap.
-    loop {
-        let before = leaving.len();
-        leaving.retain(|&k| {
-            let v = verts(&rest[k]);
-            let touches = v.iter().any(|x| staying.binary_search(x).is_ok());
-            if touches {
-                staying.extend_from_slice(&v);
-                staying.sort_unstable();
-                staying.dedup();
-            }
-            !touches
-        });
-        if leaving.len() == before {
-            return leaving;
-        }
-    }
 }
 
 /// How many times the part's own UV bounding box the new chart's may cover.
@@ -389,25 +351,11 @@ mod tests {
     }
 
     #[test]
-    fn a_piece_joined_to_the_chart_at_a_corner_stays_with_it() {
+    fn a_split_whose_chart_would_span_far_more_than_the_part_is_refused() {
         // A sliver from the turned group's far edge (UV vertices 6 and 13) back to the strip's
         // first corner (0): it hangs on the group by an edge and on the kept quads by a corner
-        // only. Sent with the group, it would stretch the new chart's box over the whole strip.
+        // only, so it would go with the group and stretch the new chart's box over the strip.
         let mut t = bent_strip_with(Some([6, 13, 0]));
-        let (face_chart, r) = split(&mut t, 1.0, 100.0);
-        assert_eq!((r.charts_made, r.faces_moved), (1, 4), "{r:?}");
-        assert_eq!(face_chart, [0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 0]);
-    }
-
-    #[test]
-    fn a_split_whose_chart_would_span_far_more_than_the_part_is_refused() {
-        // The same sliver without its corner on the kept quads (a UV vertex of its own, placed
-        // where vertex 0 is in the input): it goes with the group and would cover the strip.
-        let mut t = bent_strip_with(Some([6, 13, 0]));
-        let far = t.corner_uv[3 * 12 + 2];
-        let own = t.uv_pos.len();
-        t.split_corner(3 * 12 + 2, t.uv_pos[far.idx()]);
-        assert_eq!(t.corner_uv[3 * 12 + 2].idx(), own);
         let (face_chart, r) = split(&mut t, 1.0, 100.0);
         assert_eq!((r.candidates, r.charts_made), (1, 0), "{r:?}");
         assert!(face_chart.iter().all(|&c| c == 0));
