@@ -94,7 +94,7 @@ fn patch(rng: &mut SplitMix64) -> LocalProblem {
             })
         })
         .collect();
-    let boundary = |k: usize| k % n == 0 || k % n == n - 1 || k / n == 0 || k / n == m - 1;
+    let boundary = |k: usize| k.is_multiple_of(n) || k % n == n - 1 || k / n == 0 || k / n == m - 1;
     let whole_boundary = rng.below(2) == 0;
     let (p0, p1) = (0, n * m - 1);
     let fixed: Vec<bool> =
@@ -137,11 +137,11 @@ fn judge(
 ) -> Result<(usize, usize), String> {
     let total: f64 = start.triangles.iter().map(|&t| cross(corners(&start.uv, t))).sum();
     let expected = if total < 0.0 { -1.0 } else { 1.0 };
-    for v in 0..end.len() {
-        if start.fixed[v] && end[v].map(f64::to_bits) != start.uv[v].map(f64::to_bits) {
-            return Err(format!("fixed vertex {v} moved: {:?} → {:?}", start.uv[v], end[v]));
+    for (v, q) in end.iter().enumerate() {
+        if start.fixed[v] && q.map(f64::to_bits) != start.uv[v].map(f64::to_bits) {
+            return Err(format!("fixed vertex {v} moved: {:?} → {q:?}", start.uv[v]));
         }
-        if !end[v][0].is_finite() || !end[v][1].is_finite() {
+        if !q[0].is_finite() || !q[1].is_finite() {
             return Err(format!("vertex {v} is not finite"));
         }
     }

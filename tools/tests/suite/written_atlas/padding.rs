@@ -90,6 +90,9 @@ fn charts(out: &Written) -> Vec<Option<usize>> {
         .collect()
 }
 
+/// Two texels of different charts and their Chebyshev distance.
+type Near = (i64, (u32, u32), (u32, u32));
+
 /// One sheet's texels labelled by the chart that owns them.
 struct Labels {
     w: u32,
@@ -114,9 +117,8 @@ impl Labels {
         *cell = chart;
     }
 
-    /// The closest pair of texels of different charts within Chebyshev distance `radius`, as
-    /// (distance, texel, texel).
-    fn closest_within(&self, radius: i64) -> Option<(i64, (u32, u32), (u32, u32))> {
+    /// The closest pair of texels of different charts within Chebyshev distance `radius`.
+    fn closest_within(&self, radius: i64) -> Option<Near> {
         if let Some(&t) = self.shared.first() {
             return Some((0, t, t));
         }
@@ -182,8 +184,8 @@ fn assert_blocks(
     side: f64,
 ) -> usize {
     let mut blocks: HashMap<(usize, [u64; 2]), Vec<usize>> = HashMap::new();
-    for f in 0..chart.len() {
-        if let (None, Some((s, t))) = (chart[f], out.face(f)) {
+    for (f, c) in chart.iter().enumerate() {
+        if let (None, Some((s, t))) = (c, out.face(f)) {
             blocks.entry((s, t[0].map(f64::to_bits))).or_default().push(f);
         }
     }
