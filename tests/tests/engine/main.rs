@@ -5,3 +5,4 @@ mod build_atlas;
 mod invariants;
 mod merge_engine;
 mod predicates_brute_force;
+mod solver_contract;

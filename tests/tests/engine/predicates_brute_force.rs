@@ -1,7 +1,7 @@
 //! The overlap predicates against a brute-force reference that shares no code with them: the
 //! intersection area of two random triangles estimated by counting the points of a fine lattice
 //! that lie inside both (with its own inside test), and the exact overlap test checked against
-//! that estimate.
+//! that estimate; and cases with known answers: identical, contained and degenerate triangles.
 
 use proptest::prelude::*;
 use scanatlas_core::geometry::predicates::{triangle_intersection_area, triangles_overlap};
@@ -87,5 +87,76 @@ proptest! {
             prop_assert!(triangle_intersection_area(a, b) <= 1e-12);
         }
         prop_assert_eq!(overlap, triangles_overlap(b, a));
+    }
+}
+
+/// A triangle with real (not lattice) corners in `[0, 1]²`, to be scaled and moved.
+fn unit_triangle() -> impl Strategy<Value = Tri> {
+    let corner = (0.0..1.0f64, 0.0..1.0f64).prop_map(|(x, y)| [x, y]);
+    [corner.clone(), corner.clone(), corner]
+}
+
+/// `t` scaled by `s` about its centroid.
+fn shrunk(t: &Tri, s: f64) -> Tri {
+    let c = [(t[0][0] + t[1][0] + t[2][0]) / 3.0, (t[0][1] + t[1][1] + t[2][1]) / 3.0];
+    t.map(|p| [c[0] + s * (p[0] - c[0]), c[1] + s * (p[1] - c[1])])
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
+
+    /// Cases whose answer is known without sampling: a triangle meets itself (in any corner
+    /// order, either orientation) in its whole area, a copy shrunk about its centroid by `s` in
+    /// `s²` of it, and a degenerate triangle (a point or a segment, even one lying inside the
+    /// other) in nothing. Far from the origin, as texel coordinates of a 16k sheet are.
+    #[test]
+    fn identical_contained_and_degenerate_triangles_have_the_known_area(
+        t in unit_triangle(),
+        scale in 1.0..64.0f64,
+        origin in (0.0..16_384.0f64, 0.0..16_384.0f64),
+        s in 0.05..1.0f64,
+        along in 0.0..1.0f64,
+    ) {
+        let t = t.map(|p| [origin.0 + scale * p[0], origin.1 + scale * p[1]]);
+        let a = area(&t);
+        prop_assume!(a > 1e-3 * scale * scale);
+        // Rounding of coordinates near 16k: a few ulps of the largest coordinate times the size.
+        let tol = 1e-9 * (a + 16_384.0 * scale);
+        for same in [t, [t[1], t[2], t[0]], [t[0], t[2], t[1]]] {
+            let got = triangle_intersection_area(t, same);
+            prop_assert!((got - a).abs() <= tol, "itself: {got} against {a}");
+            prop_assert!(triangles_overlap(t, same));
+        }
+        let inner = shrunk(&t, s);
+        let got = triangle_intersection_area(t, inner);
+        prop_assert!((got - s * s * a).abs() <= tol, "shrunk by {s}: {got} against {}", s * s * a);
+        // Exactly degenerate triangles through the inside (a triangle whose corners are only
+        // nearly collinear is a sliver, which the exact test rightly sees): a segment from
+        // corner 0 to a point of the opposite edge, a horizontal one through the centroid, and
+        // the centroid alone.
+        let m = [t[1][0] + along * (t[2][0] - t[1][0]), t[1][1] + along * (t[2][1] - t[1][1])];
+        let c = shrunk(&t, 0.0)[0];
+        let e = 0.01 * scale;
+        let level = [[c[0] - e, c[1]], [c[0], c[1]], [c[0] + e, c[1]]];
+        for flat in [[t[0], m, m], level, [c; 3]] {
+            prop_assert!(triangle_intersection_area(t, flat) <= tol, "degenerate {flat:?}");
+            prop_assert!(triangle_intersection_area(flat, t) <= tol, "degenerate {flat:?}");
+            prop_assert!(!triangles_overlap(t, flat));
+        }
+    }
+
+    /// Arbitrary real triangles at texel scale, against the lattice count scaled to them.
+    #[test]
+    fn the_intersection_area_of_real_triangles_matches_the_lattice_count(
+        a in unit_triangle(),
+        b in unit_triangle(),
+        scale in 0.5..8.0f64,
+    ) {
+        let (a, b) = (a.map(|p| p.map(|x| x * scale)), b.map(|p| p.map(|x| x * scale)));
+        let exact = triangle_intersection_area(a, b);
+        let counted = lattice_area(&a, &b);
+        let tolerance = 2.0 * (perimeter(&a) + perimeter(&b)) / STEPS;
+        prop_assert!((exact - counted).abs() <= tolerance, "area {exact} against {counted} (±{tolerance})");
+        prop_assert!((exact - triangle_intersection_area(b, a)).abs() <= 1e-9 * scale * scale);
     }
 }

@@ -14,3 +14,4 @@ mod report_browser;
 mod safe_input;
 mod slurm;
 mod texture_size;
+mod written_atlas;
