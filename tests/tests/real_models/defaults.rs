@@ -28,6 +28,10 @@ struct Floors {
     max_new_flips: i64,
 }
 
+/// The distortion budget g of the defaults: the evaluator's mean ARAP energy of the written UVs
+/// against the input's must not exceed it.
+const BUDGET: f64 = 0.025;
+
 /// The preserved faces' texels are the input's, so the goal for their PSNR is 60 dB (what
 /// bilinear reads across the chart's edge leave); no model meets it yet, so each floor is today's
 /// figure.
@@ -35,7 +39,7 @@ const FLOORS: [Floors; 4] = [
     // The reference: 711 → 126 charts (79 with area), solidity 0.124, 8.3% preserved, 41.2 dB.
     Floors {
         rel: "meshroom-esp32cam/texturedMesh.obj",
-        // FIXME: the goal is the reference's 79 (85 today); this is 79 + 10%.
+        // FIXME: the goal is the reference's 79 (86 today); this is 79 + 10%.
         max_charts: 86,
         min_solidity: 0.124,
         min_preserved_area: 0.083,
@@ -48,8 +52,10 @@ const FLOORS: [Floors; 4] = [
     // The reference crashes on the plane: every floor is today's figure.
     Floors {
         rel: "sketchfab-plane-meal/scene.gltf",
-        max_charts: 59,
-        min_solidity: 0.0919,
+        // Since the written UVs hold the budget (the merge keeps 1% of it for the repairs after
+        // it), one chart more than the 59 before.
+        max_charts: 60,
+        min_solidity: 0.0911,
         min_preserved_area: 0.248,
         min_psnr: 46.3,
         // FIXME: goal 60 dB (48.3 today).
@@ -73,17 +79,16 @@ const FLOORS: [Floors; 4] = [
     // The reference aborts on the Smithsonian model: every floor is today's figure.
     Floors {
         rel: "smithsonian-usnm1145291/usnm1145291.nodraco.gltf",
-        max_charts: 629,
-        min_solidity: 0.0322,
+        // 629 and 0.0322 before the written UVs held the budget.
+        max_charts: 631,
+        min_solidity: 0.0320,
         min_preserved_area: 0.424,
         min_psnr: 44.3,
         // FIXME: goal 60 dB (47.3 today).
         min_preserved_psnr: 47.3,
         // FIXME: goal 35 dB (30.0 today, 30 samples).
         min_zero_uv_psnr: 30.0,
-        // FIXME: the evaluator finds 2 new flips (faces 54003 and 54004, which keep their
-        // orientation in a chart of the other one); the goal is 0, as for every other model.
-        max_new_flips: 2,
+        max_new_flips: 0,
     },
 ];
 
@@ -111,6 +116,8 @@ fn shortfalls(floor: &Floors, v: &serde_json::Value) -> Vec<String> {
     check(pairs == 0, format!("{pairs} new overlapping face pairs"));
     check(charts < int(&input["charts_edge_with_area"]), format!("no chart merged ({charts})"));
     check(charts <= floor.max_charts, format!("{charts} charts with area > {}", floor.max_charts));
+    let energy = real(&c["distortion_arap"]["mean"]);
+    check(energy <= BUDGET, format!("mean ARAP energy {energy} over the budget {BUDGET}"));
     let solidity = real(&output["atlas_solidity"]);
     check(solidity >= floor.min_solidity, format!("solidity {solidity} < {}", floor.min_solidity));
     let preserved = real(&c["grid_preserved"]["area3d_fraction"]);
@@ -151,7 +158,8 @@ fn default_defrag_meets_the_reference_figures_with_colour() {
         let c = &v["comparison"];
         println!(
             "{}: {run_s:.1} s; charts with area {} → {}, solidity {}, grid-preserved {:.4}, PSNR \
-             all {:?} / preserved {:?} / zero-UV {:?} dB, new flips {}, new overlapping pairs {}",
+             all {:?} / preserved {:?} / zero-UV {:?} dB, mean ARAP {}, new flips {}, new \
+             overlapping pairs {}",
             floor.rel,
             v["input"]["charts_edge_with_area"],
             v["output"]["charts_edge_with_area"],
@@ -160,6 +168,7 @@ fn default_defrag_meets_the_reference_figures_with_colour() {
             psnr(&v, "all"),
             psnr(&v, "grid_preserved"),
             psnr(&v, "zero_uv_area"),
+            c["distortion_arap"]["mean"],
             c["new_flipped_faces"],
             c["overlap"]["new_overlap_face_pairs"],
         );
