@@ -5,6 +5,7 @@
 //! blocks of faces without UV area, keep the padding apart. Every footprint here is computed by
 //! the small, obvious code of `texels`, never by the engine's rasterizer.
 
+mod budget;
 mod padding;
 mod texels;
 
