@@ -7,9 +7,12 @@
 //!
 //! Instead, every distinct colour point gets one square block of texels in the free space of the
 //! output sheets, painted with the input's bilinear colour at that point, and every face of that
-//! point is mapped onto the block's centre. A segment face takes the colour at the midpoint of
-//! its two farthest corners: one colour for the face is what the block can hold, and the midpoint
-//! is the point whose colour is nearest, on average, to the colours along the segment.
+//! point is mapped onto the block's centre. A segment face (its corners on a line) shows the
+//! colours along its segment: its block is a strip, each column painted with the input's colour
+//! at one point of the segment (the first and last columns at its two farthest corners, the
+//! others evenly between), every row alike, and the face is mapped onto the line through the
+//! block's middle, each corner at its own place along the segment. Bilinear sampling along that
+//! line then interpolates the input's colours along the segment, at the block's resolution.
 //!
 //! The block is aligned to a multiple of its side on the pixel grid (columns from the left, rows
 //! from the top, as the encoders see them) and sized so that nothing reading it mixes in another
@@ -35,9 +38,10 @@ pub fn zero_uv_area(tri: [[f64; 2]; 3]) -> bool {
     (0.5 * signed_area2(tri)).abs() < DEGEN_AREA_TEXELS
 }
 
-/// The point whose colour a face without UV area keeps: the midpoint of its two farthest
-/// corners (the point itself for a point face).
-pub fn colour_point(tri: [[f64; 2]; 3]) -> [f64; 2] {
+/// The segment whose colours a face without UV area keeps: its two farthest corners (one point
+/// twice for a point face), and where each corner lies along it (0 at the first end, 1 at the
+/// second; 0.5 for a point).
+pub fn colour_segment(tri: [[f64; 2]; 3]) -> ([[f64; 2]; 2], [f64; 3]) {
     let d2 = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2);
     let mut best = (d2(tri[0], tri[1]), 0, 1);
     for (i, j) in [(1, 2), (0, 2)] {
@@ -47,7 +51,14 @@ pub fn colour_point(tri: [[f64; 2]; 3]) -> [f64; 2] {
         }
     }
     let (a, b) = (tri[best.1], tri[best.2]);
-    [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])]
+    if best.0 == 0.0 {
+        return ([a, a], [0.5; 3]);
+    }
+    let along = tri.map(|p| {
+        let t = ((p[0] - a[0]) * (b[0] - a[0]) + (p[1] - a[1]) * (b[1] - a[1])) / best.0;
+        t.clamp(0.0, 1.0)
+    });
+    ([a, b], along)
 }
 
 /// The side in texels of a palette block for sheets written in `format`: a whole JPEG block
@@ -68,20 +79,22 @@ pub struct PaletteFace {
     pub face: u32,
     /// Input sheet of the face.
     pub src_sheet: u32,
-    /// The input texel-space point whose colour the face keeps (see [`colour_point`]).
-    pub point: [f64; 2],
+    /// The input texel-space segment whose colours the face keeps, and where its corners lie
+    /// along it (see [`colour_segment`]).
+    pub ends: [[f64; 2]; 2],
+    pub along: [f64; 3],
 }
 
 /// One block: cell `(col, row)` of output sheet `sheet` (pixel columns `col·side ..` from the
-/// left, rows `row·side ..` from the top), painted with the colour of `src` on input sheet
-/// `src_sheet`.
+/// left, rows `row·side ..` from the top), painted with the colours along segment `ends` (a
+/// point when both are one) on input sheet `src_sheet`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PaletteBlock {
     pub sheet: u32,
     pub col: u32,
     pub row: u32,
     pub src_sheet: u32,
-    pub src: [f64; 2],
+    pub ends: [[f64; 2]; 2],
 }
 
 /// What the palette did, for the run report.
@@ -107,6 +120,9 @@ pub struct Palette {
     pub blocks: Vec<PaletteBlock>,
     /// `(face, block)` for every palette face, in increasing face order.
     pub face_block: Vec<(u32, u32)>,
+    /// Where each of those faces' corners lie along their block's segment (see
+    /// [`Palette::corner`]), in the same order.
+    pub face_along: Vec<[f64; 3]>,
     pub report: PaletteReport,
 }
 
@@ -127,15 +143,27 @@ pub struct PaletteSpace {
 impl Palette {
     /// The texel-space centre of block `b`, on a sheet `height` texels high.
     pub fn centre(&self, b: u32, height: u32) -> [f64; 2] {
-        let block = &self.blocks[b as usize];
-        let half = 0.5 * f64::from(self.side);
-        let x = f64::from(block.col * self.side) + half;
-        let y = f64::from(height) - f64::from(block.row * self.side) - half;
-        [x, y]
+        self.corner(b, 0.5, height)
     }
 
-    /// Two face mappings per block that paint its texels with the colour of its source point:
-    /// their input triangles collapse onto the point, so every texel samples it.
+    /// Where a face corner lying at `t` along block `b`'s segment goes, on a sheet `height`
+    /// texels high: on the line through the block's middle, from the first column's centre
+    /// (`t = 0`) to the last's (`t = 1`); the block's centre for a point.
+    pub fn corner(&self, b: u32, t: f64, height: u32) -> [f64; 2] {
+        let block = &self.blocks[b as usize];
+        let s = f64::from(self.side);
+        let x0 = f64::from(block.col * self.side);
+        let y = f64::from(height) - f64::from(block.row * self.side) - 0.5 * s;
+        if block.ends[0] == block.ends[1] {
+            return [x0 + 0.5 * s, y];
+        }
+        [x0 + 0.5 + t * (s - 1.0), y]
+    }
+
+    /// Two face mappings per block that paint its texels with the colours of its segment: a
+    /// point block's input triangles collapse onto the point, so every texel samples it; a
+    /// segment block's map each column's centre onto its point of the segment (see
+    /// [`Palette::corner`]), every row alike.
     pub fn mappings(&self, sheet_sizes: &[(u32, u32)]) -> Vec<FaceMapping> {
         let s = f64::from(self.side);
         let mut out = Vec::with_capacity(2 * self.blocks.len());
@@ -143,14 +171,21 @@ impl Palette {
             let h = f64::from(sheet_sizes[b.sheet as usize].1);
             let (x0, top) = (f64::from(b.col) * s, h - f64::from(b.row) * s);
             let (x1, bottom) = (x0 + s, top - s);
-            for dst in
-                [[[x0, bottom], [x1, bottom], [x1, top]], [[x0, bottom], [x1, top], [x0, top]]]
-            {
+            // The input points of the block's left and right edges, half a column beyond the
+            // segment's ends (the same point for a point block).
+            let [a, e] = b.ends;
+            let reach = if s > 1.0 { 0.5 / (s - 1.0) } else { 0.0 };
+            let at = |t: f64| [a[0] + t * (e[0] - a[0]), a[1] + t * (e[1] - a[1])];
+            let (left, right) = (at(-reach), at(1.0 + reach));
+            for (dst, src) in [
+                ([[x0, bottom], [x1, bottom], [x1, top]], [left, right, right]),
+                ([[x0, bottom], [x1, top], [x0, top]], [left, right, left]),
+            ] {
                 out.push(FaceMapping {
                     dst_sheet: b.sheet,
                     dst,
                     src_sheet: b.src_sheet,
-                    src: [b.src; 3],
+                    src,
                     exact: None,
                 });
             }
@@ -200,7 +235,7 @@ impl Cells {
     }
 }
 
-/// Places one block per distinct colour point of `faces` (in face order) around the charts
+/// Places one block per distinct colour segment (or point) of `faces` (in face order) around the charts
 /// `charts` (output sheet and texel-space triangle of every packed face), widening the last
 /// sheet or adding sheets to `sheet_sizes` when the free cells do not suffice.
 pub fn place_palette(
@@ -214,18 +249,22 @@ pub fn place_palette(
     // A limit below the block side would leave no cell anywhere: the block shrinks to fit.
     let side = space.side.min(max_w.max(1)).min(max_h.max(1)).max(1);
     let mut palette = Palette { side, ..Palette::default() };
-    let mut by_point: HashMap<(u32, u64, u64), u32> = HashMap::new();
-    let mut wanted: Vec<(u32, [f64; 2])> = Vec::new();
+    let mut by_segment: HashMap<(u32, [u64; 4]), u32> = HashMap::new();
+    let mut wanted: Vec<(u32, [[f64; 2]; 2])> = Vec::new();
+    let mut placed: Vec<(u32, u32, [f64; 3])> = Vec::with_capacity(faces.len());
     for f in faces {
-        let key = (f.src_sheet, f.point[0].to_bits(), f.point[1].to_bits());
+        let [a, b] = f.ends;
+        let key = (f.src_sheet, [a[0], a[1], b[0], b[1]].map(f64::to_bits));
         let next = wanted.len() as u32;
-        let b = *by_point.entry(key).or_insert(next);
+        let b = *by_segment.entry(key).or_insert(next);
         if b == next {
-            wanted.push((f.src_sheet, f.point));
+            wanted.push((f.src_sheet, f.ends));
         }
-        palette.face_block.push((f.face, b));
+        placed.push((f.face, b, f.along));
     }
-    palette.face_block.sort_unstable();
+    placed.sort_unstable_by_key(|p| (p.0, p.1));
+    palette.face_block = placed.iter().map(|p| (p.0, p.1)).collect();
+    palette.face_along = placed.iter().map(|p| p.2).collect();
     palette.report = PaletteReport {
         point_faces: faces.len(),
         segment_faces,
@@ -241,12 +280,12 @@ pub fn place_palette(
     palette.blocks = slots
         .into_iter()
         .zip(wanted)
-        .map(|((sheet, col, row), (src_sheet, src))| PaletteBlock {
+        .map(|((sheet, col, row), (src_sheet, ends))| PaletteBlock {
             sheet,
             col,
             row,
             src_sheet,
-            src,
+            ends,
         })
         .collect();
     palette
@@ -381,7 +420,7 @@ mod tests {
     }
 
     fn face(face: u32, point: [f64; 2]) -> PaletteFace {
-        PaletteFace { face, src_sheet: 0, point }
+        PaletteFace { face, src_sheet: 0, ends: [point; 2], along: [0.5; 3] }
     }
 
     /// The pixels `(column, row)` each mapping covers, by the resampler's raster.
@@ -394,12 +433,13 @@ mod tests {
     }
 
     #[test]
-    fn zero_area_and_colour_point() {
+    fn zero_area_and_colour_segment() {
         assert!(zero_uv_area([[3.0, 4.0]; 3]));
         assert!(zero_uv_area([[0.0, 0.0], [2.0, 2.0], [5.0, 5.0]]));
         assert!(!zero_uv_area([[0.0, 0.0], [1.0, 0.0], [0.0, 0.01]]));
-        assert_eq!(colour_point([[3.0, 4.0]; 3]), [3.0, 4.0]);
-        assert_eq!(colour_point([[2.0, 2.0], [0.0, 0.0], [6.0, 6.0]]), [3.0, 3.0]);
+        assert_eq!(colour_segment([[3.0, 4.0]; 3]), ([[3.0, 4.0]; 2], [0.5; 3]));
+        let (ends, along) = colour_segment([[2.0, 2.0], [0.0, 0.0], [6.0, 6.0]]);
+        assert_eq!((ends, along), ([[0.0, 0.0], [6.0, 6.0]], [1.0 / 3.0, 0.0, 1.0]));
     }
 
     #[test]
@@ -427,11 +467,47 @@ mod tests {
             let mut expect = expect;
             expect.sort_unstable();
             assert_eq!(px, expect, "block {b} is painted whole, each texel once");
-            assert!(maps[2 * b].src.iter().all(|&s| s == block.src));
+            assert!(maps[2 * b].src.iter().all(|&s| s == block.ends[0]));
             // The centre lies on the block's middle texel corner.
             let c = p.centre(b as u32, sizes[0].1);
             assert_eq!(c, [f64::from(block.col * 8) + 4.0, 32.0 - f64::from(block.row * 8) - 4.0]);
         }
+    }
+
+    #[test]
+    fn a_segment_block_holds_the_colours_along_its_segment() {
+        // A segment face from (2, 3) to (8, 6) with its third corner a third of the way along.
+        let (ends, along) = colour_segment([[2.0, 3.0], [8.0, 6.0], [4.0, 4.0]]);
+        assert_eq!(ends, [[2.0, 3.0], [8.0, 6.0]]);
+        let faces = [PaletteFace { face: 0, src_sheet: 0, ends, along }, face(1, [5.0, 5.0])];
+        let mut sizes = vec![(32, 32)];
+        let p = place_palette(&faces, 1, std::iter::empty(), &mut sizes, space(4, (32, 32)));
+        assert_eq!((p.blocks.len(), p.face_along[0]), (2, along));
+        let (block, h) = (p.blocks[0], 32u32);
+        let maps = p.mappings(&sizes);
+        // Every texel centre of the strip samples the segment's point for its column, whatever
+        // its row: the first column the first end, the last the second.
+        for m in &maps[0..2] {
+            for (i, j) in covered(m, sizes[0]) {
+                let c = [f64::from(i) + 0.5, f64::from(h - j) - 0.5];
+                let [a, b, d] = m.dst;
+                let det = (b[0] - a[0]) * (d[1] - a[1]) - (b[1] - a[1]) * (d[0] - a[0]);
+                let u = ((c[0] - a[0]) * (d[1] - a[1]) - (c[1] - a[1]) * (d[0] - a[0])) / det;
+                let v = ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])) / det;
+                let src = [0, 1].map(|k| {
+                    m.src[0][k] + u * (m.src[1][k] - m.src[0][k]) + v * (m.src[2][k] - m.src[0][k])
+                });
+                let t = f64::from(i - block.col * 4) / 3.0;
+                let want = [2.0 + 6.0 * t, 3.0 + 3.0 * t];
+                assert!((src[0] - want[0]).abs() < 1e-9 && (src[1] - want[1]).abs() < 1e-9);
+            }
+        }
+        // The face's corners go on the strip's middle line at their place along it.
+        let x0 = f64::from(block.col * 4);
+        let y = f64::from(h - block.row * 4) - 2.0;
+        assert_eq!(p.corner(0, 0.0, h), [x0 + 0.5, y]);
+        assert_eq!(p.corner(0, 1.0, h), [x0 + 3.5, y]);
+        assert_eq!(p.centre(1, h)[1], f64::from(h - p.blocks[1].row * 4) - 2.0);
     }
 
     #[test]

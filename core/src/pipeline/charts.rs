@@ -141,8 +141,8 @@ impl PackingCharts {
             }
             let t = tri(f);
             segments += usize::from(t.iter().any(|p| p != &t[0]));
-            let point = palette::colour_point(t);
-            out.push(PaletteFace { face: f as u32, src_sheet: topo.face_sheet[f], point });
+            let (ends, along) = palette::colour_segment(t);
+            out.push(PaletteFace { face: f as u32, src_sheet: topo.face_sheet[f], ends, along });
         }
         for p in &out {
             self.face_chart[p.face as usize] = NONE;

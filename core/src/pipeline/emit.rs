@@ -115,19 +115,28 @@ pub(super) fn packed_model(
     let mut uvs: Vec<[f64; 2]> = Vec::with_capacity(t.uv_pos.len());
     let mut new_id = vec![NONE; t.uv_pos.len()];
     let mut zero_uv: Option<UvId> = None;
-    // One UV record per palette block, at its centre.
+    // One UV record per point block, at its centre; one per corner of a segment face, at its
+    // place along its block.
     let mut block_uv = vec![NONE; palette.blocks.len()];
-    let mut on_palette = palette.face_block.iter().peekable();
+    let mut on_palette = palette.face_block.iter().zip(&palette.face_along).peekable();
     for (f, face) in out.faces.iter_mut().enumerate() {
-        if let Some(&(_, b)) = on_palette.next_if(|(pf, _)| *pf as usize == f) {
-            let sheet = palette.blocks[b as usize].sheet;
-            let (w, h) = packed.sheet_sizes[sheet as usize];
-            if block_uv[b as usize] == NONE {
-                block_uv[b as usize] = uvs.len() as u32;
-                uvs.push(texel_to_uv(palette.centre(b, h), w, h));
-            }
-            face.uv = Some([UvId(block_uv[b as usize]); 3]);
-            face.material = Some(MaterialId::from_usize(sheet as usize));
+        if let Some((&(_, b), along)) = on_palette.next_if(|((pf, _), _)| *pf as usize == f) {
+            let block = &palette.blocks[b as usize];
+            let (w, h) = packed.sheet_sizes[block.sheet as usize];
+            let ids = if block.ends[0] == block.ends[1] {
+                if block_uv[b as usize] == NONE {
+                    block_uv[b as usize] = uvs.len() as u32;
+                    uvs.push(texel_to_uv(palette.centre(b, h), w, h));
+                }
+                [UvId(block_uv[b as usize]); 3]
+            } else {
+                along.map(|t| {
+                    uvs.push(texel_to_uv(palette.corner(b, t, h), w, h));
+                    UvId::from_usize(uvs.len() - 1)
+                })
+            };
+            face.uv = Some(ids);
+            face.material = Some(MaterialId::from_usize(block.sheet as usize));
             continue;
         }
         let chart = face_chart[f];

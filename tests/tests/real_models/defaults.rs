@@ -86,8 +86,10 @@ const FLOORS: [Floors; 4] = [
         min_psnr: 44.3,
         // FIXME: goal 60 dB (47.3 today).
         min_preserved_psnr: 47.3,
-        // FIXME: goal 35 dB (30.0 today, 30 samples).
-        min_zero_uv_psnr: 30.0,
+        // 38.2 dB on the evaluator's 30 samples since segment faces keep the colours along
+        // their segment (30.1 before); with 3 M samples (469 on these faces) it is 32.7 dB: the
+        // slivers held inside charts by an edge are the rest. FIXME: goal 35 dB there too.
+        min_zero_uv_psnr: 36.0,
         max_new_flips: 0,
     },
 ];
