@@ -43,6 +43,9 @@ pub enum WarningCode {
     TexelScaleBelowOne,
     /// A sheet of a `--sheet-size` run is larger than the fixed size (a chart does not fit it).
     SheetSizeExceeded,
+    /// A material map that `defrag` could not carry over to the new atlas (other texture
+    /// coordinates, an extension's texture, an unreadable image): left as it was or neutral.
+    MapNotRebaked,
 }
 
 impl WarningCode {
@@ -63,6 +66,7 @@ impl WarningCode {
             Self::StrayUvs => "stray-uvs",
             Self::TexelScaleBelowOne => "texel-scale-below-one",
             Self::SheetSizeExceeded => "sheet-size-exceeded",
+            Self::MapNotRebaked => "map-not-rebaked",
         }
     }
 }

@@ -13,6 +13,7 @@ use super::charts::PackingCharts;
 use super::context::{RunContext, RunPaths};
 use super::decode_ahead::DecodeAhead;
 use super::emit::{packed_model, synthesize};
+use super::maps::WrittenMap;
 use crate::defrag::{
     MergeOptions, MergeReport, MergedLayout, UntangleOptions, UntangleReport,
     merge_charts_parallel, merged_model,
@@ -161,6 +162,8 @@ pub struct DefragReport {
     pub resample: Option<ResampleReport>,
     /// Output sheet files written (empty with `merge_only`).
     pub sheets: Vec<PathBuf>,
+    /// The other material maps written (normal, occlusion, `map_Ks`, ...), per output sheet.
+    pub maps: Vec<WrittenMap>,
     /// Atlas figures of the input model and of the written output model, read back.
     pub input_stats: AtlasStats,
     pub output_stats: AtlasStats,
@@ -239,6 +242,10 @@ struct Emitted {
     resample: Option<ResampleReport>,
     /// The sheet files as written (in the staging folder).
     sheets: Vec<PathBuf>,
+    /// The other maps as written (in the staging folder).
+    maps: Vec<WrittenMap>,
+    /// What the maps could not carry over.
+    map_warnings: Vec<Warning>,
     faces_unpacked: u64,
     untangle: Option<UntangleReport>,
 }
@@ -251,6 +258,8 @@ impl Emitted {
             pack: None,
             resample: None,
             sheets: Vec::new(),
+            maps: Vec::new(),
+            map_warnings: Vec::new(),
             faces_unpacked: 0,
             untangle: None,
         }
@@ -334,6 +343,11 @@ pub fn defrag_with_progress(
     let t = Instant::now();
     crate::io::write_model(&emitted.model, &ctx.staged_output(), &ctx.write_options())?;
     let sheets: Vec<PathBuf> = emitted.sheets.iter().map(|p| ctx.final_path(p)).collect();
+    let maps: Vec<WrittenMap> = emitted
+        .maps
+        .iter()
+        .map(|m| WrittenMap { path: ctx.final_path(&m.path), ..m.clone() })
+        .collect();
     ctx.commit()?;
     times.write_ms = ms(t);
 
@@ -342,9 +356,15 @@ pub fn defrag_with_progress(
     let (output_stats, output_warnings) = output_stats(output, &stats_opts)?;
     let (input_stats, _) = input_stats.finish();
     let pack_warnings = emitted.pack.as_ref().map(sheet_warnings).unwrap_or_default();
-    let warnings =
-        [&model.warnings[..], &prepare_warnings[..], &output_warnings[..], &pack_warnings[..]]
-            .concat();
+    let map_warnings = [untouched_map_warnings(&model), emitted.map_warnings].concat();
+    let warnings = [
+        &model.warnings[..],
+        &prepare_warnings[..],
+        &output_warnings[..],
+        &pack_warnings[..],
+        &map_warnings[..],
+    ]
+    .concat();
     times.metrics_ms = ms(t);
     times.total_ms = ms(t_all);
     Ok(DefragReport {
@@ -363,11 +383,30 @@ pub fn defrag_with_progress(
         pack: emitted.pack,
         resample: emitted.resample,
         sheets,
+        maps,
         input_stats,
         output_stats,
         times,
         warnings,
     })
+}
+
+/// The maps of a glTF input that `defrag` leaves as they were although the new UVs no longer
+/// fit them (see `io::gltf::maps::untouched_maps`).
+fn untouched_map_warnings(model: &Model) -> Vec<Warning> {
+    let crate::model::Origin::Gltf(scene) = &model.origin else { return Vec::new() };
+    let list = crate::io::gltf::maps::untouched_maps(&scene.document);
+    if list.is_empty() {
+        return Vec::new();
+    }
+    vec![Warning::new(
+        WarningCode::MapNotRebaked,
+        format!(
+            "{} texture(s) are left as they were, not carried over to the new atlas: {}",
+            list.len(),
+            list.join(", ")
+        ),
+    )]
 }
 
 /// The warnings of the preparation stage: faces whose UVs had to be collapsed.
@@ -695,13 +734,24 @@ fn texture_stage(
 ) -> Result<Emitted, PipelineError> {
     let decoding = std::mem::take(&mut loaded.decoding);
     let format = output_format(cfg, &loaded.model)?;
-    let (sheets, resample) =
-        synthesize(topo, &charts.face_chart, &packed, &palette, decoding, format, cfg, ctx)?;
-    let model = packed_model(&loaded.model, topo, &charts.face_chart, &packed, &palette, &sheets);
+    let model = &loaded.model;
+    let face_chart = &charts.face_chart;
+    let colour =
+        synthesize(model, topo, face_chart, &packed, &palette, decoding, format, cfg, ctx)?;
+    let mappings = super::maps::ColourMappings {
+        mappings: &colour.mappings,
+        materials: &colour.materials,
+        out_sizes: &packed.sheet_sizes,
+    };
+    let (maps, map_warnings) = super::maps::synthesize_maps(model, &mappings, cfg, ctx)?;
+    let sheets = colour.paths;
+    let model = packed_model(model, topo, face_chart, &packed, &palette, &sheets, &maps);
     Ok(Emitted {
         model,
         pack: Some(packed.report),
-        resample,
+        resample: colour.report,
+        maps,
+        map_warnings,
         sheets,
         faces_unpacked: charts.unpacked,
         untangle,

@@ -399,8 +399,13 @@ fn round_trip_is_bit_exact_and_keeps_embedded_sheets() {
             })
             .collect(),
         materials: vec![
-            Material { name: "emb".into(), sheet: Some(SheetId(0)), extra: vec!["Ns 10".into()] },
-            Material { name: "flat".into(), sheet: None, extra: vec![] },
+            Material {
+                name: "emb".into(),
+                sheet: Some(SheetId(0)),
+                extra: vec!["Ns 10".into()],
+                ..Default::default()
+            },
+            Material { name: "flat".into(), sheet: None, extra: vec![], ..Default::default() },
         ],
         sheets: vec![Sheet {
             image: ImageSource::Embedded {
@@ -453,8 +458,12 @@ fn writer_refuses_protected_targets_and_writes_nothing() {
 
 #[test]
 fn a_material_name_with_a_newline_cannot_start_an_mtl_statement() {
-    let named =
-        |name: &str| crate::model::Material { name: name.into(), sheet: None, extra: Vec::new() };
+    let named = |name: &str| crate::model::Material {
+        name: name.into(),
+        sheet: None,
+        extra: Vec::new(),
+        ..Default::default()
+    };
     let model = Model {
         materials: vec![
             named("skin\nmap_Kd /etc/passwd"),
