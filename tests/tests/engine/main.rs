@@ -3,5 +3,6 @@
 
 mod build_atlas;
 mod invariants;
+mod material_maps;
 mod merge_engine;
 mod predicates_brute_force;

@@ -78,7 +78,10 @@ impl Turn {
         if m.iter().any(|x| !x.is_finite()) {
             return None;
         }
-        let identity = (m[0] - 1.0).abs() < 1e-12 && m[1].abs() < 1e-12 && m[2].abs() < 1e-12;
+        let identity = (m[0] - 1.0).abs() < 1e-12
+            && m[1].abs() < 1e-12
+            && m[2].abs() < 1e-12
+            && (m[3] - 1.0).abs() < 1e-12;
         (!identity).then_some(Self { m, signed_permutation: false })
     }
 
@@ -146,6 +149,9 @@ mod tests {
         let dst = [[5.0, 5.0], [3.0, 5.0], [5.0, 7.0]];
         let t = Turn::of_triangles(&src, &dst).unwrap();
         assert!((t.m[0] + 1.0).abs() < 1e-12 && (t.m[3] - 1.0).abs() < 1e-12);
+        // Mirrored in v: the identity's first row, but a reflection.
+        let t = Turn::of_triangles(&src, &[[5.0, 5.0], [7.0, 5.0], [5.0, 3.0]]).unwrap();
+        assert!((t.m[0] - 1.0).abs() < 1e-12 && (t.m[3] + 1.0).abs() < 1e-12);
         assert!(Turn::of_triangles(&src, &[[1.0, 1.0], [3.0, 1.0], [1.0, 3.0]]).is_none());
         assert!(Turn::of_triangles(&[[0.0, 0.0]; 3], &dst).is_none());
     }
