@@ -156,7 +156,12 @@ fn neutral_store(
     let value = neutral(role, format.channels);
     let px = store.pixel_mut(0, 0);
     for c in 0..format.channels as usize {
-        let v = if format.channels < 3 { value[0] } else { value[c] };
+        // Gray images take the first value; a gray image's alpha stays opaque.
+        let v = match (format.channels, c) {
+            (1 | 2, 0) => value[0],
+            (2, _) => 255,
+            _ => value[c],
+        };
         match format.sample {
             SampleType::U8 => px[c] = v,
             SampleType::U16 => {
