@@ -96,3 +96,43 @@ pub fn untouched_maps(doc: &Value) -> Vec<String> {
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn a_map_follows_the_colour_only_with_the_same_set_and_transform() {
+        let xf = json!({"KHR_texture_transform": {"offset": [0.5, 0.0]}});
+        let mat = json!({
+            "pbrMetallicRoughness": {"baseColorTexture": {"index": 0},
+                "metallicRoughnessTexture": {"index": 1, "texCoord": 0}},
+            "normalTexture": {"index": 2, "texCoord": 1},
+            "occlusionTexture": {"index": 3, "extensions": xf},
+            "emissiveTexture": {"index": 4},
+            "extensions": {"KHR_materials_clearcoat": {"clearcoatTexture": {"index": 5}}}
+        });
+        let follows = |role: &MapRole| follows_colour(&mat, role_info(&mat, role).unwrap());
+        assert!(follows(&MapRole::MetallicRoughness));
+        assert!(!follows(&MapRole::Normal));
+        assert!(!follows(&MapRole::Occlusion));
+        assert!(follows(&MapRole::Emissive));
+        let doc = json!({"materials": [mat, {"normalTexture": {"index": 2, "texCoord": 1}}]});
+        let untouched = untouched_maps(&doc);
+        assert_eq!(untouched.len(), 3, "{untouched:?}");
+        assert!(untouched[2].contains("clearcoatTexture"), "{untouched:?}");
+    }
+
+    #[test]
+    fn roles_are_written_and_removed_where_gltf_keeps_them() {
+        let mut mat = json!({});
+        *role_info_mut(&mut mat, &MapRole::MetallicRoughness).unwrap() = json!({"index": 1});
+        *role_info_mut(&mut mat, &MapRole::Normal).unwrap() = json!({"index": 2});
+        assert_eq!(mat["pbrMetallicRoughness"]["metallicRoughnessTexture"]["index"], 1);
+        remove_role(&mut mat, &MapRole::Normal);
+        remove_role(&mut mat, &MapRole::MetallicRoughness);
+        assert_eq!(mat, json!({"pbrMetallicRoughness": {}}));
+        assert!(role_info_mut(&mut mat, &MapRole::Mtl("map_ks".into())).is_none());
+    }
+}

@@ -478,3 +478,24 @@ fn a_material_name_with_a_newline_cannot_start_an_mtl_statement() {
     assert_eq!(names[2], "skin_map_Kd /etc/passwd_2");
     assert!(names.iter().all(|n| !n.contains('\n')));
 }
+
+#[test]
+fn mtl_maps_other_than_map_kd_are_recorded_once_per_keyword_and_refl_is_not() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("m.mtl"),
+        "newmtl a\nmap_Kd kd.png\nmap_Ks ks.png\nmap_Bump -bm 0.5 n.png\nbump other.png\n\
+         refl -type sphere env.png\nnorm n.png\nmap_Ks again.png\n",
+    )
+    .unwrap();
+    let obj = dir.path().join("m.obj");
+    std::fs::write(&obj, "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl a\nf 1/1 2/2 3/3\n")
+        .unwrap();
+    let m = read(&obj).unwrap();
+    let roles: Vec<&str> = m.materials[0].maps.iter().map(|x| x.role.label()).collect();
+    assert_eq!(roles, ["map_ks", "map_bump", "bump", "norm"]);
+    // map_Bump and norm name one image: one map sheet.
+    assert_eq!(m.map_sheets.len(), 3);
+    assert_eq!(m.materials[0].maps[1].sheet, m.materials[0].maps[3].sheet);
+    m.validate_indices().unwrap();
+}
