@@ -356,7 +356,7 @@ pub fn defrag_with_progress(
     let (output_stats, output_warnings) = output_stats(output, &stats_opts)?;
     let (input_stats, _) = input_stats.finish();
     let pack_warnings = emitted.pack.as_ref().map(sheet_warnings).unwrap_or_default();
-    let map_warnings = [untouched_map_warnings(&model), emitted.map_warnings].concat();
+    let map_warnings = [super::maps::untouched_map_warnings(&model), emitted.map_warnings].concat();
     let warnings = [
         &model.warnings[..],
         &prepare_warnings[..],
@@ -389,24 +389,6 @@ pub fn defrag_with_progress(
         times,
         warnings,
     })
-}
-
-/// The maps of a glTF input that `defrag` leaves as they were although the new UVs no longer
-/// fit them (see `io::gltf::maps::untouched_maps`).
-fn untouched_map_warnings(model: &Model) -> Vec<Warning> {
-    let crate::model::Origin::Gltf(scene) = &model.origin else { return Vec::new() };
-    let list = crate::io::gltf::maps::untouched_maps(&scene.document);
-    if list.is_empty() {
-        return Vec::new();
-    }
-    vec![Warning::new(
-        WarningCode::MapNotRebaked,
-        format!(
-            "{} texture(s) are left as they were, not carried over to the new atlas: {}",
-            list.len(),
-            list.join(", ")
-        ),
-    )]
 }
 
 /// The warnings of the preparation stage: faces whose UVs had to be collapsed.
@@ -564,8 +546,17 @@ fn start_background(
     if !cfg.merge_only {
         let tiles: u64 =
             in_sizes.iter().flatten().map(|&(w, h)| super::context::tile_bytes(w, h, 4)).sum();
+        // The maps are resampled one role at a time after the colour's tiles are gone: a role
+        // needs at most all map images' tiles and output tiles as large as the colour's.
+        let maps: u64 = model
+            .map_sheets
+            .iter()
+            .filter_map(|s| crate::texture::decode::probe_size(&s.image).ok())
+            .map(|(w, h)| super::context::tile_bytes(w, h, 4))
+            .sum();
         // The input sheets' tiles and as many for the output's; about the input's size again
         // for the written set.
+        let tiles = tiles.max(maps);
         ctx.check_space(2 * tiles, super::convert::input_bytes(ctx.protected()))?;
     }
     let overlaps =

@@ -222,6 +222,14 @@ fn one_role(
         normals: role.tangent_normals(format.channels),
     };
     let out = resample_sheets(&refs, &mappings, &sizes, &opts)?;
+    tracing::info!(
+        "{} map: {} sheet(s) from {} image(s), {} texels copied, {} sampled",
+        role.label(),
+        sizes.len(),
+        inputs.stores.len(),
+        out.report.texels_copied,
+        out.report.texels_sampled
+    );
     let image = &model.map_sheets[inputs.sheets[0].idx()].image;
     let file_format = match cfg.texture_format {
         Some(f) => f,
@@ -288,4 +296,22 @@ fn encode_role(
         })
         .collect::<Result<Vec<_>, _>>()?;
     Ok(written)
+}
+
+/// The maps of a glTF input that `defrag` leaves as they were although the new UVs no longer
+/// fit them (see `io::gltf::maps::untouched_maps`).
+pub(super) fn untouched_map_warnings(model: &Model) -> Vec<Warning> {
+    let crate::model::Origin::Gltf(scene) = &model.origin else { return Vec::new() };
+    let list = crate::io::gltf::maps::untouched_maps(&scene.document);
+    if list.is_empty() {
+        return Vec::new();
+    }
+    vec![Warning::new(
+        WarningCode::MapNotRebaked,
+        format!(
+            "{} texture(s) are left as they were, not carried over to the new atlas: {}",
+            list.len(),
+            list.join(", ")
+        ),
+    )]
 }
