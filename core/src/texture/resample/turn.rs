@@ -48,7 +48,8 @@ impl Turn {
         ];
         let det = e[0] * e[3] - e[1] * e[2];
         let scale = e.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-        if !(det.abs() > 1e-12 * scale * scale) {
+        // A degenerate (or non-finite) input triangle has no frame to turn.
+        if !det.is_finite() || det.abs() <= 1e-12 * scale * scale {
             return None;
         }
         // L = F · E⁻¹.
