@@ -361,7 +361,7 @@ fn decode_normal(c: [u8; 3], f: [[f64; 3]; 3]) -> [f64; 3] {
 /// centroid, the normal decoded through the output UVs' tangent frame is the input's within
 /// quantization. Returns how many preserved texels were checked, and how many of those were
 /// normals of turned or mirrored charts.
-fn check_maps(gap: bool) -> (usize, usize) {
+fn check_maps(gap: bool, texel_scale: f64) -> (usize, usize) {
     let dir = tempfile::tempdir().unwrap();
     let input = gltf_fixture(dir.path(), material(), gap);
     let output = dir.path().join("out/o.gltf");
@@ -369,6 +369,7 @@ fn check_maps(gap: bool) -> (usize, usize) {
     let mut cfg = DefragConfig::default();
     // One sheet holds every chart, so none is scaled to fit.
     cfg.pack.max_sheet_size = Some((256, 256));
+    cfg.pack.texel_scale = texel_scale;
     run(&input, &output, &cfg);
     let (out, model) = read_gltf_out(&output);
     let sheet_h: Vec<usize> = (0..out.materials.len())
@@ -452,7 +453,7 @@ fn check_maps(gap: bool) -> (usize, usize) {
 
 #[test]
 fn preserved_texels_are_bit_identical_in_every_map() {
-    let (texels, turned) = check_maps(true);
+    let (texels, turned) = check_maps(true, 1.0);
     assert!(texels > 2000, "too few preserved texels to judge: {texels}");
     assert!(turned > 0, "no preserved chart was mirrored: the exact turn is not tested");
 }
@@ -462,8 +463,16 @@ fn normals_decoded_through_the_tangent_frame_follow_merged_and_turned_charts() {
     // The quads merge into one chart, turned and mirrored onto one another: the pipeline
     // resamples most faces (at texel centres, as the merge is rigid), and their normals turn by
     // the polar factor of their UV map, which must agree with the exact turn.
-    let (_, turned) = check_maps(false);
+    let (_, turned) = check_maps(false, 1.0);
     assert!(turned > 0, "no chart was turned: the fixture does not test the turn");
+}
+
+#[test]
+fn normals_of_scaled_charts_turn_by_the_polar_factor_of_their_uv_map() {
+    // Every chart shrunk: no texel is copied, every normal is sampled bilinearly and turned by
+    // the rotation or reflection nearest to its face's UV map.
+    let (texels, _) = check_maps(false, 0.8);
+    assert_eq!(texels, 0, "a scaled chart cannot be preserved");
 }
 
 #[test]
