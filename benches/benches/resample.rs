@@ -54,7 +54,12 @@ fn faces(src_of: impl Fn([f64; 2]) -> [f64; 2], exact: Option<GridTransform>) ->
 fn bench(c: &mut Criterion) {
     let dir = tempfile::tempdir().unwrap();
     let src = input(dir.path());
-    let opts = ResampleOptions { dilate: 0, push_pull: false, work_dir: dir.path().to_path_buf() };
+    let opts = ResampleOptions {
+        dilate: 0,
+        push_pull: false,
+        work_dir: dir.path().to_path_buf(),
+        normals: false,
+    };
     // A quarter turn onto the same square: every texel copied verbatim.
     let turn = GridTransform { mirror: false, quarter_turns: 1, offset: [i64::from(SIZE), 0] };
     let exact = faces(|p| turn.invert(p), Some(turn));

@@ -59,6 +59,10 @@ define_index!(
     SheetId
 );
 define_index!(
+    /// A material map image other than the base colour (row of `Model::map_sheets`).
+    MapSheetId
+);
+define_index!(
     /// A material (row of `Model::materials`).
     MaterialId
 );

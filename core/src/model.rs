@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use crate::index::{FaceId, MaterialId, NormalId, SheetId, UvId, VertexId};
+use crate::index::{FaceId, MapSheetId, MaterialId, NormalId, SheetId, UvId, VertexId};
 
 /// The file formats scanatlas reads and writes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -87,6 +87,55 @@ pub struct Sheet {
     pub size: Option<(u32, u32)>,
 }
 
+/// What a material map other than the base colour holds, which decides how it is resampled
+/// and where a writer puts it.
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]
+#[serde(rename_all = "camelCase")]
+pub enum MapRole {
+    /// glTF `pbrMetallicRoughness.metallicRoughnessTexture`.
+    MetallicRoughness,
+    /// glTF `normalTexture`: a tangent-space normal map.
+    Normal,
+    /// glTF `occlusionTexture`.
+    Occlusion,
+    /// glTF `emissiveTexture`.
+    Emissive,
+    /// An MTL map statement other than `map_Kd`, by its lower-case keyword (`map_ks`,
+    /// `map_bump`, `bump`, `norm`, `map_d`, `disp`, ...).
+    Mtl(String),
+}
+
+impl MapRole {
+    /// A short name for file names and reports (`normal`, `map_ks`, ...).
+    pub fn label(&self) -> &str {
+        match self {
+            Self::MetallicRoughness => "metallicRoughness",
+            Self::Normal => "normal",
+            Self::Occlusion => "occlusion",
+            Self::Emissive => "emissive",
+            Self::Mtl(kw) => kw,
+        }
+    }
+
+    /// Whether the map holds tangent-space normals, given the channels of its image: glTF
+    /// normal maps and MTL `norm` always; MTL `map_Bump` and `bump` when the image has colour
+    /// channels (exporters write normal maps there), a gray one being a height map.
+    pub fn tangent_normals(&self, channels: u8) -> bool {
+        match self {
+            Self::Normal => true,
+            Self::Mtl(kw) => kw == "norm" || (channels >= 3 && (kw == "map_bump" || kw == "bump")),
+            _ => false,
+        }
+    }
+}
+
+/// One map of a material, read through the same texture coordinates as its base colour.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MaterialMap {
+    pub role: MapRole,
+    pub sheet: MapSheetId,
+}
+
 /// A material. Several materials may share one sheet (same `map_Kd`).
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct Material {
@@ -95,6 +144,19 @@ pub struct Material {
     /// Format-specific statements to write back unchanged (e.g. MTL lines other than
     /// `newmtl` and `map_Kd`).
     pub extra: Vec<String>,
+    /// The material's other maps that follow the base colour's UVs, at most one per role.
+    pub maps: Vec<MaterialMap>,
+    /// For a material a pipeline made (one per output sheet): the input material whose
+    /// properties it keeps. A writer of the input's format copies that material's properties
+    /// and replaces only its texture references; `None` for a material read from a file.
+    pub source: Option<MaterialId>,
+}
+
+impl Material {
+    /// The map sheet of `role`, if the material has that map.
+    pub fn map(&self, role: &MapRole) -> Option<MapSheetId> {
+        self.maps.iter().find(|m| &m.role == role).map(|m| m.sheet)
+    }
 }
 
 /// What a reader remembers of the file beyond the mesh, so a writer of the same format can keep it.
@@ -122,6 +184,9 @@ pub struct Model {
     pub faces: Vec<Face>,
     pub materials: Vec<Material>,
     pub sheets: Vec<Sheet>,
+    /// The images of the materials' other maps (normal, occlusion, `map_Ks`, ...), which
+    /// follow the same UVs as the sheets.
+    pub map_sheets: Vec<Sheet>,
     pub origin: Origin,
     /// Informational observations made while reading that change nothing (e.g. "12 polygons
     /// triangulated"); they go to the log, never fail a run.
@@ -184,6 +249,9 @@ impl Model {
         for (i, m) in self.materials.iter().enumerate() {
             if m.sheet.is_some_and(|s| s.idx() >= self.sheets.len()) {
                 return Err(format!("material {i}: sheet index out of range"));
+            }
+            if m.maps.iter().any(|x| x.sheet.idx() >= self.map_sheets.len()) {
+                return Err(format!("material {i}: map index out of range"));
             }
         }
         Ok(())

@@ -49,6 +49,9 @@ pub enum WarningCode {
     FacesDetached,
     /// Pairs of faces share texels in the output that they did not share in the input.
     TexelClashesLeft,
+    /// A material map that `defrag` could not carry over to the new atlas (other texture
+    /// coordinates, an extension's texture, an unreadable image): left as it was or neutral.
+    MapNotRebaked,
 }
 
 impl WarningCode {
@@ -72,6 +75,7 @@ impl WarningCode {
             Self::DistortionOverBudget => "distortion-over-budget",
             Self::FacesDetached => "faces-detached",
             Self::TexelClashesLeft => "texel-clashes-left",
+            Self::MapNotRebaked => "map-not-rebaked",
         }
     }
 }

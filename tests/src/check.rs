@@ -436,7 +436,12 @@ mod tests {
         let mut m = Model { positions: positions.to_vec(), ..Model::default() };
         m.sheets
             .push(Sheet { image: ImageSource::File("s.png".into()), size: Some((SHEET, SHEET)) });
-        m.materials.push(Material { name: "m".into(), sheet: Some(SheetId(0)), extra: vec![] });
+        m.materials.push(Material {
+            name: "m".into(),
+            sheet: Some(SheetId(0)),
+            extra: vec![],
+            ..Default::default()
+        });
         for (v, t) in faces {
             let base = m.uvs.len() as u32;
             m.uvs.extend(t.iter().map(|p| p.map(|x| x / f64::from(SHEET))));
@@ -524,6 +529,7 @@ mod tests {
                 name: "m1".into(),
                 sheet: Some(SheetId(1)),
                 extra: vec![],
+                ..Default::default()
             });
             m.faces[1].material = Some(MaterialId(1));
         };

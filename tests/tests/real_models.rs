@@ -413,3 +413,76 @@ fn fixed_power_of_two_sheets_are_valid_on_meshroom_and_the_plane() {
         assert_eq!(c["overlap"]["new_overlap_face_pairs"], 0, "{rel}: new overlaps");
     }
 }
+
+/// The glTF document of a `.gltf` or `.glb` file.
+fn gltf_json(path: &Path) -> serde_json::Value {
+    let bytes = std::fs::read(path).unwrap();
+    if bytes.starts_with(b"glTF") {
+        let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+        return serde_json::from_slice(&bytes[20..20 + len]).unwrap();
+    }
+    serde_json::from_slice(&bytes).unwrap()
+}
+
+/// Every map of a material follows the atlas (issue 37 §8): on the wooden letter (colour and
+/// normal PNGs) and the Smithsonian scan (Draco GLB and its plain twin; colour, occlusion and
+/// normal JPEGs), every output material has each of the input's maps, every image the output
+/// refers to is one the run wrote, and the material properties are the input's.
+#[test]
+fn every_map_of_a_material_follows_the_atlas_on_real_exports() {
+    let mut reg = scanatlas_core::plugin::Registry::default();
+    scanatlas_plugins::register_builtin(&mut reg);
+    let data = real_data();
+    let dir = tempfile::tempdir().unwrap();
+    let cases: [(&str, &str, &[&str]); 3] = [
+        ("sketchfab-wooden-letter/scene.gltf", "gltf", &["normalTexture"]),
+        ("smithsonian-usnm1145291/usnm1145291.glb", "glb", &["normalTexture", "occlusionTexture"]),
+        (
+            "smithsonian-usnm1145291/usnm1145291.nodraco.gltf",
+            "gltf",
+            &["normalTexture", "occlusionTexture"],
+        ),
+    ];
+    for (i, (rel, ext, roles)) in cases.into_iter().enumerate() {
+        let input = data.join(rel);
+        let out_dir = dir.path().join(format!("case{i}"));
+        std::fs::create_dir_all(&out_dir).unwrap();
+        let output = out_dir.join(format!("out.{ext}"));
+        let cfg = pipeline::defrag::DefragConfig::default();
+        let report = pipeline::defrag::defrag(&input, &output, &reg, &cfg)
+            .unwrap_or_else(|e| panic!("{rel}: {e}"));
+        let doc = gltf_json(&output);
+        let original = &gltf_json(&input)["materials"][0];
+        let materials = doc["materials"].as_array().unwrap();
+        println!("{rel}: {} materials, maps {:?}", materials.len(), report.maps);
+        assert_eq!(report.maps.len(), materials.len() * roles.len(), "{rel}: {:?}", report.maps);
+        for (k, m) in materials.iter().enumerate() {
+            for key in ["doubleSided", "alphaMode"] {
+                assert_eq!(m.get(key), original.get(key), "{rel}: material {k} {key}");
+            }
+            let pbr = &m["pbrMetallicRoughness"];
+            for key in ["roughnessFactor", "metallicFactor", "baseColorFactor"] {
+                let want = original["pbrMetallicRoughness"].get(key);
+                assert_eq!(pbr.get(key), want, "{rel}: material {k} {key}");
+            }
+            for role in roles.iter() {
+                assert!(m[*role]["index"].is_u64(), "{rel}: material {k} has no {role}: {m}");
+            }
+        }
+        for (k, image) in doc["images"].as_array().unwrap().iter().enumerate() {
+            match image.get("uri").and_then(|u| u.as_str()) {
+                Some(uri) => {
+                    let path = out_dir.join(uri);
+                    assert!(path.exists(), "{rel}: image {k} {uri} missing");
+                    let written = report.sheets.iter().chain(report.maps.iter().map(|m| &m.path));
+                    let ours = written.map(|p| p.canonicalize().unwrap()).collect::<Vec<_>>();
+                    assert!(ours.contains(&path.canonicalize().unwrap()), "{rel}: image {uri}");
+                }
+                None => assert!(image["bufferView"].is_u64(), "{rel}: image {k}"),
+            }
+        }
+        if ext == "glb" {
+            assert_eq!(doc["images"].as_array().unwrap().len(), 1 + roles.len(), "{rel}");
+        }
+    }
+}

@@ -33,7 +33,12 @@ impl MergeScorer for ByError {
 fn model_with(positions: Vec<[f64; 3]>) -> Model {
     let mut m = Model { positions, ..Model::default() };
     m.sheets.push(Sheet { image: ImageSource::File("s.png".into()), size: Some((SHEET, SHEET)) });
-    m.materials.push(Material { name: "m".into(), sheet: Some(SheetId(0)), extra: vec![] });
+    m.materials.push(Material {
+        name: "m".into(),
+        sheet: Some(SheetId(0)),
+        extra: vec![],
+        ..Default::default()
+    });
     m
 }
 

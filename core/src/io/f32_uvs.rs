@@ -319,7 +319,12 @@ mod tests {
         let texel = [[o[0], o[1]], [o[0] + 1.0, o[1] + 0.00002], [o[0] + 2.0, o[1] + 0.00006]];
         let mut m = Model { positions: vec![[0.0; 3]; 3], ..Model::default() };
         m.sheets.push(Sheet { image: ImageSource::File("s.png".into()), size: Some((4096, 4096)) });
-        m.materials.push(Material { name: "m".into(), sheet: Some(SheetId(0)), extra: vec![] });
+        m.materials.push(Material {
+            name: "m".into(),
+            sheet: Some(SheetId(0)),
+            extra: vec![],
+            ..Default::default()
+        });
         m.uvs = texel.iter().map(|t| [t[0] / w, t[1] / w]).collect();
         m.faces.push(Face {
             v: [VertexId(0), VertexId(1), VertexId(2)],

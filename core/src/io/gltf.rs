@@ -18,6 +18,7 @@
 mod accessor;
 mod draco;
 mod fresh;
+pub mod maps;
 mod output;
 mod reader;
 mod refs;

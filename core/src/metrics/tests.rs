@@ -56,6 +56,7 @@ impl Fixture {
                     name: format!("m{k}"),
                     sheet: s.map(SheetId),
                     extra: Vec::new(),
+                    ..Default::default()
                 })
                 .collect(),
             sheets: (0..self.sheets.len())

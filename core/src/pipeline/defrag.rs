@@ -13,6 +13,7 @@ use super::charts::PackingCharts;
 use super::context::{RunContext, RunPaths};
 use super::decode_ahead::DecodeAhead;
 use super::emit::{packed_model, synthesize};
+use super::maps::WrittenMap;
 use crate::defrag::{
     EnergyBudget, MergeOptions, MergeReport, MergedLayout, UNTANGLE_BUDGET_SHARE, UntangleOptions,
     UntangleReport, merge_charts_parallel, merged_model,
@@ -161,6 +162,8 @@ pub struct DefragReport {
     pub resample: Option<ResampleReport>,
     /// Output sheet files written (empty with `merge_only`).
     pub sheets: Vec<PathBuf>,
+    /// The other material maps written (normal, occlusion, `map_Ks`, ...), per output sheet.
+    pub maps: Vec<WrittenMap>,
     /// Atlas figures of the input model and of the written output model, read back.
     pub input_stats: AtlasStats,
     pub output_stats: AtlasStats,
@@ -243,6 +246,10 @@ struct Emitted {
     resample: Option<ResampleReport>,
     /// The sheet files as written (in the staging folder).
     sheets: Vec<PathBuf>,
+    /// The other maps as written (in the staging folder).
+    maps: Vec<WrittenMap>,
+    /// What the maps could not carry over.
+    map_warnings: Vec<Warning>,
     faces_unpacked: u64,
     untangle: Option<UntangleReport>,
 }
@@ -255,6 +262,8 @@ impl Emitted {
             pack: None,
             resample: None,
             sheets: Vec::new(),
+            maps: Vec::new(),
+            map_warnings: Vec::new(),
             faces_unpacked: 0,
             untangle: None,
         }
@@ -377,6 +386,11 @@ pub fn defrag_with_progress(
     let t = Instant::now();
     crate::io::write_model(&emitted.model, &ctx.staged_output(), &ctx.write_options())?;
     let sheets: Vec<PathBuf> = emitted.sheets.iter().map(|p| ctx.final_path(p)).collect();
+    let maps: Vec<WrittenMap> = emitted
+        .maps
+        .iter()
+        .map(|m| WrittenMap { path: ctx.final_path(&m.path), ..m.clone() })
+        .collect();
     ctx.commit()?;
     times.write_ms = ms(t);
 
@@ -386,9 +400,15 @@ pub fn defrag_with_progress(
     let (input_stats, _) = input_stats.finish();
     let mut pack_warnings = emitted.pack.as_ref().map(pack_warnings).unwrap_or_default();
     pack_warnings.extend(budget_warning(written.distortion, merge_opts.global_distortion));
-    let warnings =
-        [&model.warnings[..], &prepare_warnings[..], &written.warnings[..], &pack_warnings[..]]
-            .concat();
+    let map_warnings = [super::maps::untouched_map_warnings(&model), emitted.map_warnings].concat();
+    let warnings = [
+        &model.warnings[..],
+        &prepare_warnings[..],
+        &written.warnings[..],
+        &pack_warnings[..],
+        &map_warnings[..],
+    ]
+    .concat();
     times.metrics_ms = ms(t);
     times.total_ms = ms(t_all);
     Ok(DefragReport {
@@ -407,6 +427,7 @@ pub fn defrag_with_progress(
         pack: emitted.pack,
         resample: emitted.resample,
         sheets,
+        maps,
         input_stats,
         output_stats: written.stats,
         distortion: written.distortion,
@@ -603,8 +624,17 @@ fn start_background(
     if !cfg.merge_only {
         let tiles: u64 =
             in_sizes.iter().flatten().map(|&(w, h)| super::context::tile_bytes(w, h, 4)).sum();
+        // The maps are resampled one role at a time after the colour's tiles are gone: a role
+        // needs at most all map images' tiles and output tiles as large as the colour's.
+        let maps: u64 = model
+            .map_sheets
+            .iter()
+            .filter_map(|s| crate::texture::decode::probe_size(&s.image).ok())
+            .map(|(w, h)| super::context::tile_bytes(w, h, 4))
+            .sum();
         // The input sheets' tiles and as many for the output's; about the input's size again
         // for the written set.
+        let tiles = tiles.max(maps);
         ctx.check_space(2 * tiles, super::convert::input_bytes(ctx.protected()))?;
     }
     let overlaps =
@@ -782,13 +812,24 @@ fn texture_stage(
 ) -> Result<Emitted, PipelineError> {
     let decoding = std::mem::take(&mut loaded.decoding);
     let format = output_format(cfg, &loaded.model)?;
-    let (sheets, resample) =
-        synthesize(topo, &charts.face_chart, &packed, &palette, decoding, format, cfg, ctx)?;
-    let model = packed_model(&loaded.model, topo, &charts.face_chart, &packed, &palette, &sheets);
+    let model = &loaded.model;
+    let face_chart = &charts.face_chart;
+    let colour =
+        synthesize(model, topo, face_chart, &packed, &palette, decoding, format, cfg, ctx)?;
+    let mappings = super::maps::ColourMappings {
+        mappings: &colour.mappings,
+        materials: &colour.materials,
+        out_sizes: &packed.sheet_sizes,
+    };
+    let (maps, map_warnings) = super::maps::synthesize_maps(model, &mappings, cfg, ctx)?;
+    let sheets = colour.paths;
+    let model = packed_model(model, topo, face_chart, &packed, &palette, &sheets, &maps);
     Ok(Emitted {
         model,
         pack: Some(packed.report),
-        resample,
+        resample: colour.report,
+        maps,
+        map_warnings,
         sheets,
         faces_unpacked: charts.unpacked,
         untangle,

@@ -7,9 +7,10 @@ use super::PipelineError;
 use super::context::RunContext;
 use super::decode_ahead::DecodeAhead;
 use super::defrag::DefragConfig;
+use super::maps::WrittenMap;
 use crate::index::NONE;
-use crate::index::{MaterialId, UvId};
-use crate::model::Model;
+use crate::index::{MapSheetId, MaterialId, UvId};
+use crate::model::{ImageSource, MaterialMap, Model, Sheet};
 use crate::pack::PackedLayout;
 use crate::pack::palette::Palette;
 use crate::texture::coords::texel_to_uv;
@@ -24,11 +25,21 @@ fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
 
+/// What the colour synthesis made: the sheet files (in output sheet order), the resample
+/// report, and the face mappings with the input material of each, which the other maps reuse.
+#[derive(Default)]
+pub(super) struct Synthesized {
+    pub paths: Vec<PathBuf>,
+    pub report: Option<ResampleReport>,
+    pub mappings: Vec<FaceMapping>,
+    pub materials: Vec<Option<MaterialId>>,
+}
+
 /// Takes the input sheets from `decoding`, resamples the packed layout and writes the output
 /// sheets.
-/// Returns the written sheet paths (in output sheet order) and the resample report.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn synthesize(
+    model: &Model,
     t: &Topology,
     face_chart: &[u32],
     packed: &PackedLayout,
@@ -37,11 +48,12 @@ pub(super) fn synthesize(
     format: ImageFormat,
     cfg: &DefragConfig,
     ctx: &RunContext,
-) -> Result<(Vec<PathBuf>, Option<ResampleReport>), PipelineError> {
+) -> Result<Synthesized, PipelineError> {
     if packed.sheet_sizes.is_empty() {
-        return Ok((Vec::new(), None));
+        return Ok(Synthesized::default());
     }
     let mut mappings = Vec::with_capacity(face_chart.len());
+    let mut materials = Vec::with_capacity(face_chart.len());
     for (f, &chart) in face_chart.iter().enumerate() {
         if chart == NONE {
             continue;
@@ -59,8 +71,15 @@ pub(super) fn synthesize(
             src: [0, 1, 2].map(|k| t.orig_uv[3 * f + k]),
             exact,
         });
+        materials.push(model.faces[f].material);
     }
     mappings.extend(palette.mappings(&packed.sheet_sizes));
+    // A palette block shows the colour of its first face, so its maps are that face's too.
+    let mut block_material = vec![None; palette.blocks.len()];
+    for &(f, b) in palette.face_block.iter().rev() {
+        block_material[b as usize] = model.faces[f as usize].material;
+    }
+    materials.extend(block_material.iter().flat_map(|&m| [m, m]));
     // Each input sheet is decoded once into a disk-backed tile store (deleted on drop), by the
     // decode started after loading.
     let decoded = decoding.finish()?;
@@ -70,6 +89,7 @@ pub(super) fn synthesize(
         dilate: cfg.pack.padding.clamp(1, MAX_RADIUS),
         push_pull: true,
         work_dir: ctx.work_dir().to_path_buf(),
+        normals: false,
     };
     let mut out = resample_sheets(&input_refs, &mappings, &packed.sheet_sizes, &opts)?;
     drop(inputs);
@@ -89,7 +109,7 @@ pub(super) fn synthesize(
     )?;
     out.report.ms_encode = ms(t);
     (out.report.ms_decode, out.report.ms_decode_wait) = (decoded.decode_ms, decoded.wait_ms);
-    Ok((paths, Some(out.report)))
+    Ok(Synthesized { paths, report: Some(out.report), mappings, materials })
 }
 
 /// The output model: the input's positions, normals and faces in input order, one UV record per
@@ -109,6 +129,7 @@ pub(super) fn packed_model(
     packed: &PackedLayout,
     palette: &Palette,
     sheet_paths: &[PathBuf],
+    maps: &[WrittenMap],
 ) -> Model {
     let mut out = model.clone();
     super::set_atlas_sheets(&mut out, sheet_paths, &packed.sheet_sizes);
@@ -174,5 +195,38 @@ pub(super) fn packed_model(
         face.material = Some(MaterialId::from_usize(sheet));
     }
     out.uvs = uvs;
+    keep_material_properties(&mut out, model, maps);
     out
+}
+
+/// Gives every output material (one per output sheet) the properties of the input material
+/// that contributes most of its faces (the lowest index on a tie), and its written maps: the
+/// writers copy that material's properties (glTF JSON, MTL statements) and replace only the
+/// texture references.
+fn keep_material_properties(out: &mut Model, input: &Model, maps: &[WrittenMap]) {
+    let n_in = input.materials.len();
+    let mut count = vec![0u64; out.materials.len() * n_in];
+    for (o, i) in out.faces.iter().zip(&input.faces) {
+        if let (Some(k), Some(m)) = (o.material, i.material)
+            && k.idx() < out.materials.len()
+        {
+            count[k.idx() * n_in + m.idx()] += 1;
+        }
+    }
+    for (k, mat) in out.materials.iter_mut().enumerate() {
+        let row = &count[k * n_in..(k + 1) * n_in];
+        let best =
+            (0..n_in).filter(|&m| row[m] > 0).max_by_key(|&m| (row[m], std::cmp::Reverse(m)));
+        mat.source = best.map(MaterialId::from_usize);
+        if let Some(m) = best {
+            mat.extra = input.materials[m].extra.clone();
+        }
+    }
+    for w in maps {
+        let id = MapSheetId::from_usize(out.map_sheets.len());
+        out.map_sheets.push(Sheet { image: ImageSource::File(w.path.clone()), size: None });
+        if let Some(mat) = out.materials.get_mut(w.sheet) {
+            mat.maps.push(MaterialMap { role: w.role.clone(), sheet: id });
+        }
+    }
 }

@@ -9,6 +9,7 @@ pub mod convert;
 mod decode_ahead;
 pub mod defrag;
 mod emit;
+pub mod maps;
 pub mod naming;
 mod rigid_split;
 
@@ -22,6 +23,7 @@ use crate::texture::TextureError;
 /// sheet, named after the input's materials where they still fit (see [`naming`]).
 pub(crate) fn set_atlas_sheets(out: &mut Model, paths: &[PathBuf], sizes: &[(u32, u32)]) {
     use crate::model::{ImageSource, Material, Sheet};
+    out.map_sheets = Vec::new();
     out.sheets = paths
         .iter()
         .zip(sizes)
@@ -34,7 +36,7 @@ pub(crate) fn set_atlas_sheets(out: &mut Model, paths: &[PathBuf], sizes: &[(u32
         .map(|(k, name)| Material {
             name,
             sheet: Some(crate::SheetId::from_usize(k)),
-            extra: Vec::new(),
+            ..Material::default()
         })
         .collect();
 }

@@ -62,12 +62,28 @@ impl SheetNaming {
 
     /// The path of output sheet `k` of `output`.
     pub fn sheet_path(&self, output: &Path, k: usize, format: ImageFormat) -> PathBuf {
+        self.path_with_suffix(output, k, "", format)
+    }
+
+    /// The path of the `role` map of output sheet `k` of `output`: the sheet's name with
+    /// `_<role>` before the extension (`out_0_normal.png`).
+    pub fn map_path(&self, output: &Path, k: usize, role: &str, format: ImageFormat) -> PathBuf {
+        self.path_with_suffix(output, k, &format!("_{role}"), format)
+    }
+
+    fn path_with_suffix(
+        &self,
+        output: &Path,
+        k: usize,
+        suffix: &str,
+        format: ImageFormat,
+    ) -> PathBuf {
         let stem = output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
         let number = match self.numbering {
             SheetNumbering::Index => k,
             SheetNumbering::Udim => FIRST_UDIM + k,
         };
-        let name = format!("{stem}_{number}.{}", format.extension());
+        let name = format!("{stem}_{number}{suffix}.{}", format.extension());
         let dir = crate::io::paths::parent_dir(output);
         match &self.subfolder {
             Some(sub) => dir.join(sub).join(name),
@@ -182,6 +198,7 @@ mod tests {
             name: name.into(),
             sheet: sheet.map(SheetId),
             extra: Vec::new(),
+            ..Default::default()
         };
         let input =
             [m("plain", None), m("back", Some(1)), m("front", Some(0)), m("front2", Some(0))];

@@ -278,7 +278,12 @@ mod tests {
             }
         }
         m.sheets.push(Sheet { image: ImageSource::File("s.png".into()), size: Some((64, 64)) });
-        m.materials.push(Material { name: "m".into(), sheet: Some(SheetId(0)), extra: vec![] });
+        m.materials.push(Material {
+            name: "m".into(),
+            sheet: Some(SheetId(0)),
+            extra: vec![],
+            ..Default::default()
+        });
         for x in 0..6 {
             let q = [x, x + 1, x + 8, x + 7];
             for t in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {

@@ -397,6 +397,7 @@ fn synth_model(
             name: format!("sheet_{k}"),
             sheet: Some(SheetId(k as u32)),
             extra: Vec::new(),
+            ..Default::default()
         })
         .collect();
     let sheets_meta = (0..sheet_count)
@@ -413,6 +414,7 @@ fn synth_model(
         faces,
         materials,
         sheets: sheets_meta,
+        map_sheets: Vec::new(),
         origin: Default::default(),
         notes: vec![format!(
             "synthetic {} model, seed {}, {} cameras, {} charts",

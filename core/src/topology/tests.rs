@@ -13,6 +13,7 @@ fn model(positions: Vec<[f64; 3]>, sheets: &[Option<(u32, u32)>]) -> Model {
             name: format!("m{i}"),
             sheet: Some(SheetId(i as u32)),
             extra: vec![],
+            ..Default::default()
         });
     }
     m

@@ -3,6 +3,7 @@
 
 mod build_atlas;
 mod invariants;
+mod material_maps;
 mod merge_engine;
 mod predicates_brute_force;
 mod solver_contract;

@@ -176,7 +176,12 @@ fn one_sheet_model(
     let mut m = Model { positions, ..Model::default() };
     m.uvs = uvs.into_iter().map(|p| p.map(|x| x / f64::from(SHEET))).collect();
     m.sheets.push(Sheet { image: ImageSource::File("s.png".into()), size: Some((SHEET, SHEET)) });
-    m.materials.push(Material { name: "m".into(), sheet: Some(SheetId(0)), extra: vec![] });
+    m.materials.push(Material {
+        name: "m".into(),
+        sheet: Some(SheetId(0)),
+        extra: vec![],
+        ..Default::default()
+    });
     m.faces = faces
         .into_iter()
         .map(|(v, t)| Face {

@@ -10,16 +10,16 @@ use serde_json::Value;
 use super::accessor::{Accessor, Comp, item, opt_usize};
 use super::source::{self, BufferData};
 use super::{GltfNode, GltfScene, PrimitiveSpan, uri};
-use crate::index::{MaterialId, NormalId, SheetId, UvId, VertexId};
+use crate::index::{MapSheetId, MaterialId, NormalId, SheetId, UvId, VertexId};
 use crate::io::IoError;
-use crate::model::{Face, ImageSource, Material, Model, Origin, Sheet};
+use crate::model::{Face, ImageSource, Material, MaterialMap, Model, Origin, Sheet};
 use crate::texture::coords::flip_v;
 use crate::warnings::{Warning, WarningCode};
 
 /// The affine map applied to glTF UVs of one material's base-colour texture
 /// (`KHR_texture_transform`), and the texture-coordinate set it reads.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct UvTransform {
+pub(crate) struct UvTransform {
     pub set: usize,
     /// Row-major 2×3 matrix `[a, b, c, d, e, f]`: `u' = a·u + b·v + c`, `v' = d·u + e·v + f`.
     pub m: [f64; 6],
@@ -64,7 +64,7 @@ fn numbers<const N: usize>(
 
 /// The UV transform of a textureInfo: its texCoord and its `KHR_texture_transform`, whose matrix
 /// is `T · R · S` (translation, rotation, scale) applied to the column `(u, v, 1)`.
-pub(super) fn texture_info_transform(info: &Value, ctx: &str) -> Result<UvTransform, String> {
+pub(crate) fn texture_info_transform(info: &Value, ctx: &str) -> Result<UvTransform, String> {
     let mut set = opt_usize(info, "texCoord", ctx)?.unwrap_or(0);
     let Some(x) = info.get("extensions").and_then(|e| e.get("KHR_texture_transform")) else {
         return Ok(UvTransform::identity(set));
@@ -179,6 +179,7 @@ impl<'a> Reader<'a> {
         };
         let mut transforms = Vec::with_capacity(list.len());
         let mut sheet_of_image: HashMap<usize, SheetId> = HashMap::new();
+        let mut map_of_image: HashMap<usize, MapSheetId> = HashMap::new();
         for (i, mat) in list.iter().enumerate() {
             let name = mat
                 .get("name")
@@ -209,9 +210,51 @@ impl<'a> Reader<'a> {
                 }
             }
             transforms.push(xf);
-            self.model.materials.push(Material { name, sheet, extra: Vec::new() });
+            let maps = match sheet {
+                Some(_) => self.material_maps(mat, &mut map_of_image),
+                None => Vec::new(),
+            };
+            self.model.materials.push(Material { name, sheet, maps, ..Default::default() });
         }
         Ok(transforms)
+    }
+
+    /// The maps of material JSON `mat` that read the same coordinates as its base colour, one map
+    /// sheet per distinct image. A map whose image cannot be used is left out (and left
+    /// untouched by writers).
+    fn material_maps(
+        &mut self,
+        mat: &Value,
+        map_of_image: &mut HashMap<usize, MapSheetId>,
+    ) -> Vec<MaterialMap> {
+        let mut maps = Vec::new();
+        for role in super::maps::GLTF_ROLES {
+            let Some(info) = super::maps::role_info(mat, &role) else { continue };
+            if !super::maps::follows_colour(mat, info) {
+                continue;
+            }
+            let Some(t) = info.get("index").and_then(Value::as_u64) else { continue };
+            let Some(image) = item(self.json, "textures", t as usize)
+                .ok()
+                .and_then(|tex| tex.get("source"))
+                .and_then(Value::as_u64)
+                .map(|s| s as usize)
+            else {
+                continue;
+            };
+            let sheet = match map_of_image.get(&image) {
+                Some(&id) => id,
+                None => {
+                    let Ok(src) = self.image_source(image) else { continue };
+                    let id = MapSheetId::from_usize(self.model.map_sheets.len());
+                    self.model.map_sheets.push(Sheet { image: src, size: None });
+                    map_of_image.insert(image, id);
+                    id
+                }
+            };
+            maps.push(MaterialMap { role, sheet });
+        }
+        maps
     }
 
     /// The image of texture `t` (its `source`, else its `EXT_texture_webp` source), refusing

@@ -645,7 +645,12 @@ fn write_back_splits_seams_and_sheets_keeping_face_order() {
     // Defrag-like edit: face 1 moves to a new sheet with its own UVs (a seam at vertices 0, 2).
     let other = png(dir.path(), "second.png");
     m.sheets.push(Sheet { image: ImageSource::File(other), size: None });
-    m.materials.push(Material { name: "skin_1".into(), sheet: Some(SheetId(1)), extra: vec![] });
+    m.materials.push(Material {
+        name: "skin_1".into(),
+        sheet: Some(SheetId(1)),
+        extra: vec![],
+        ..Default::default()
+    });
     let base = m.uvs.len() as u32;
     m.uvs.extend([[0.9, 0.9], [0.8, 0.9], [0.8, 0.8]]);
     m.faces[1].uv = Some([UvId(base), UvId(base + 1), UvId(base + 2)]);
@@ -741,8 +746,18 @@ fn hand_model(dir: &Path) -> Model {
             },
         ],
         materials: vec![
-            Material { name: "a".into(), sheet: Some(SheetId(0)), extra: vec![] },
-            Material { name: "b".into(), sheet: Some(SheetId(1)), extra: vec![] },
+            Material {
+                name: "a".into(),
+                sheet: Some(SheetId(0)),
+                extra: vec![],
+                ..Default::default()
+            },
+            Material {
+                name: "b".into(),
+                sheet: Some(SheetId(1)),
+                extra: vec![],
+                ..Default::default()
+            },
         ],
         ..Model::default()
     };

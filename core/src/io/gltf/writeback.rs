@@ -29,8 +29,10 @@
 //! textures and images left unreferenced are dropped, so the old UVs and the old texture do not
 //! stay in the file; with an unknown extension nothing is dropped or renumbered.
 //!
-//! Limits: other textures that read the rewritten UV set (normal, occlusion maps) are not
-//! re-baked; a new material (one the model has beyond the file's materials) reads texture
+//! The other maps of a material that a pipeline made (see `Material::source`) point at their new
+//! images too, and the primitives of a material with a new normal map lose their `TANGENT`.
+//!
+//! Limits: a new material (one the model has beyond the file's materials) reads texture
 //! coordinate set 0.
 
 mod materials;
@@ -91,6 +93,7 @@ pub(super) fn write_back(
     rewriter.rewrite_meshes(&mut doc, &mut add, &span_of);
 
     materials::rewrite_materials(model, scene, &mut doc, path, opts, binary, &mut add)?;
+    drop_stale_tangents(model, &mut doc);
     drop_unused_texture_transform(&mut doc);
 
     // Drop textures, images and buffer views that this rewrite left unreferenced.
@@ -100,6 +103,30 @@ pub(super) fn write_back(
     let protect: Vec<PathBuf> = sources.iter().filter_map(|b| b.file.clone()).collect();
     output::emit(doc, bin, &sources, path, opts, binary, &protect)?;
     Ok(true)
+}
+
+/// Removes the `TANGENT` attribute of every primitive whose material has a normal map carried
+/// over to a new atlas: those tangents follow the old UVs, and without them a renderer derives
+/// the frame from the new UVs (MikkTSpace), which is the frame the new normal map was turned
+/// to. The accessors stay in the file, unreferenced.
+fn drop_stale_tangents(model: &Model, doc: &mut Value) {
+    let turned = |m: usize| {
+        model.materials.get(m).is_some_and(|mat| {
+            mat.source.is_some() && mat.map(&crate::model::MapRole::Normal).is_some()
+        })
+    };
+    let Some(Value::Array(meshes)) = doc.get_mut("meshes") else { return };
+    for mesh in meshes {
+        let Some(Value::Array(prims)) = mesh.get_mut("primitives") else { continue };
+        for p in prims {
+            let m = p.get("material").and_then(Value::as_u64);
+            if m.is_some_and(|m| turned(m as usize))
+                && let Some(Value::Object(attrs)) = p.get_mut("attributes")
+            {
+                attrs.remove("TANGENT");
+            }
+        }
+    }
 }
 
 /// Whether the primitive spans still cover the model's faces in order and its positions

@@ -6,10 +6,10 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use super::lex::{for_each_line, is_blank, rest_text, split_keyword, trim};
-use crate::index::{MaterialId, SheetId};
+use crate::index::{MapSheetId, MaterialId, SheetId};
 use crate::io::IoError;
 use crate::io::paths::parent_dir;
-use crate::model::{ImageSource, Material, Sheet};
+use crate::model::{ImageSource, MapRole, Material, MaterialMap, Sheet};
 use crate::warnings::{Warning, WarningCode};
 
 /// Materials and sheets gathered from every library of one OBJ file.
@@ -19,6 +19,9 @@ pub(super) struct MaterialTable {
     pub sheets: Vec<Sheet>,
     pub by_name: HashMap<String, MaterialId>,
     by_path: HashMap<PathBuf, SheetId>,
+    /// The images of map statements other than `map_Kd`, one per distinct file.
+    pub map_sheets: Vec<Sheet>,
+    by_map_path: HashMap<PathBuf, MapSheetId>,
     /// Libraries already read: naming one twice must not define its materials twice.
     loaded: Vec<PathBuf>,
     /// `(material name, options)` of `map_Kd` statements that carried options.
@@ -41,6 +44,17 @@ impl MaterialTable {
         id
     }
 
+    /// The map sheet of image `path`, added on first use.
+    fn map_sheet_for(&mut self, path: PathBuf) -> MapSheetId {
+        if let Some(&id) = self.by_map_path.get(&path) {
+            return id;
+        }
+        let id = MapSheetId::from_usize(self.map_sheets.len());
+        self.by_map_path.insert(path.clone(), id);
+        self.map_sheets.push(Sheet { image: ImageSource::File(path), size: None });
+        id
+    }
+
     /// The material of a `usemtl` name, creating an untextured one (and a note) for a name no
     /// library defines, so its faces keep a material entry of their own.
     pub fn material_for(&mut self, name: &str) -> MaterialId {
@@ -53,7 +67,12 @@ impl MaterialTable {
             format!("usemtl names material '{name}' that no material library defines"),
         ));
         self.undefined.push(id);
-        self.materials.push(Material { name: name.to_string(), sheet: None, extra: Vec::new() });
+        self.materials.push(Material {
+            name: name.to_string(),
+            sheet: None,
+            extra: Vec::new(),
+            ..Default::default()
+        });
         self.by_name.insert(name.to_string(), id);
         id
     }
@@ -154,15 +173,40 @@ impl MaterialTable {
             return;
         }
         let sheet = map.map(|p| self.sheet_for(p));
+        let maps = self.maps_of(&extra);
         if !opts.is_empty() {
             self.map_kd_options.push((name.clone(), opts));
         }
         self.by_name.insert(name.clone(), MaterialId::from_usize(self.materials.len()));
-        self.materials.push(Material { name, sheet, extra });
+        self.materials.push(Material { name, sheet, extra, maps, source: None });
     }
 }
 
 /// MTL statements whose last argument is a texture file.
+impl MaterialTable {
+    /// The maps of a material from its statements: every texture map other than `map_Kd` that
+    /// reads the material's UVs (so not `refl`, a reflection map indexed by direction), the
+    /// first statement of each keyword. Their paths were stored resolved.
+    fn maps_of(&mut self, extra: &[String]) -> Vec<MaterialMap> {
+        let mut maps: Vec<MaterialMap> = Vec::new();
+        for line in extra {
+            let (kw, rest) = split_keyword(line.as_bytes());
+            let kw = String::from_utf8_lossy(kw).to_ascii_lowercase();
+            if !is_map_keyword(&kw) || kw == "refl" {
+                continue;
+            }
+            let (_, file) = split_map_args(rest);
+            let role = MapRole::Mtl(kw);
+            if file.is_empty() || maps.iter().any(|m| m.role == role) {
+                continue;
+            }
+            let sheet = self.map_sheet_for(PathBuf::from(file));
+            maps.push(MaterialMap { role, sheet });
+        }
+        maps
+    }
+}
+
 pub(super) fn is_map_keyword(kw_lower: &str) -> bool {
     kw_lower.starts_with("map_") || matches!(kw_lower, "bump" | "disp" | "decal" | "refl" | "norm")
 }

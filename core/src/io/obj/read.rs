@@ -274,6 +274,7 @@ fn parse(path: &Path, bytes: &[u8], limit: u64, chunk: Option<usize>) -> Result<
         faces,
         materials: table.materials,
         sheets: table.sheets,
+        map_sheets: table.map_sheets,
         origin: Origin::Obj(extras),
         notes,
         warnings,

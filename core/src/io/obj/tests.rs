@@ -399,8 +399,13 @@ fn round_trip_is_bit_exact_and_keeps_embedded_sheets() {
             })
             .collect(),
         materials: vec![
-            Material { name: "emb".into(), sheet: Some(SheetId(0)), extra: vec!["Ns 10".into()] },
-            Material { name: "flat".into(), sheet: None, extra: vec![] },
+            Material {
+                name: "emb".into(),
+                sheet: Some(SheetId(0)),
+                extra: vec!["Ns 10".into()],
+                ..Default::default()
+            },
+            Material { name: "flat".into(), sheet: None, extra: vec![], ..Default::default() },
         ],
         sheets: vec![Sheet {
             image: ImageSource::Embedded {
@@ -453,8 +458,12 @@ fn writer_refuses_protected_targets_and_writes_nothing() {
 
 #[test]
 fn a_material_name_with_a_newline_cannot_start_an_mtl_statement() {
-    let named =
-        |name: &str| crate::model::Material { name: name.into(), sheet: None, extra: Vec::new() };
+    let named = |name: &str| crate::model::Material {
+        name: name.into(),
+        sheet: None,
+        extra: Vec::new(),
+        ..Default::default()
+    };
     let model = Model {
         materials: vec![
             named("skin\nmap_Kd /etc/passwd"),
@@ -468,4 +477,25 @@ fn a_material_name_with_a_newline_cannot_start_an_mtl_statement() {
     assert_eq!(names[1], "material_1");
     assert_eq!(names[2], "skin_map_Kd /etc/passwd_2");
     assert!(names.iter().all(|n| !n.contains('\n')));
+}
+
+#[test]
+fn mtl_maps_other_than_map_kd_are_recorded_once_per_keyword_and_refl_is_not() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("m.mtl"),
+        "newmtl a\nmap_Kd kd.png\nmap_Ks ks.png\nmap_Bump -bm 0.5 n.png\nbump other.png\n\
+         refl -type sphere env.png\nnorm n.png\nmap_Ks again.png\n",
+    )
+    .unwrap();
+    let obj = dir.path().join("m.obj");
+    std::fs::write(&obj, "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl a\nf 1/1 2/2 3/3\n")
+        .unwrap();
+    let m = read(&obj).unwrap();
+    let roles: Vec<&str> = m.materials[0].maps.iter().map(|x| x.role.label()).collect();
+    assert_eq!(roles, ["map_ks", "map_bump", "bump", "norm"]);
+    // map_Bump and norm name one image: one map sheet.
+    assert_eq!(m.map_sheets.len(), 3);
+    assert_eq!(m.materials[0].maps[1].sheet, m.materials[0].maps[3].sheet);
+    m.validate_indices().unwrap();
 }

@@ -15,7 +15,7 @@ use super::{GroupMarker, ObjExtras};
 use crate::atomic::{AtomicFile, is_protected};
 use crate::io::paths::parent_dir;
 use crate::io::{IoError, WriteOptions};
-use crate::model::{Face, ImageSource, Model, Origin};
+use crate::model::{Face, ImageSource, MapRole, Model, Origin};
 use crate::texture::ImageFormat;
 
 /// Records formatted per parallel block.
@@ -146,16 +146,41 @@ fn write_mtl(
     writeln!(w, "# written by scanatlas")?;
     for (m, name) in model.materials.iter().zip(names) {
         writeln!(w, "\nnewmtl {name}")?;
+        // The file of a map of this material, when it is a file (how the MTL names it).
+        let map_file = |role: &MapRole| match m.map(role).map(|s| &model.map_sheets[s.idx()].image)
+        {
+            Some(ImageSource::File(p)) => Some(p.clone()),
+            _ => None,
+        };
+        let mut written: Vec<String> = Vec::new();
         for line in &m.extra {
             let (kw, rest) = split_keyword(line.as_bytes());
             let kw = String::from_utf8_lossy(kw);
             let (opts, file) = split_map_args(rest);
-            if is_map_keyword(&kw.to_ascii_lowercase()) && !file.is_empty() {
-                // Texture maps other than map_Kd were stored resolved: point at them from here.
-                let file = write_opts.reference(Path::new(&file), dir);
+            let kw_l = kw.to_ascii_lowercase();
+            if is_map_keyword(&kw_l) && !file.is_empty() {
+                // Texture maps other than map_Kd were stored resolved: point at them from here,
+                // or at the map made for this material's sheet, keeping the statement's options.
+                let own = if written.contains(&kw_l) {
+                    None
+                } else {
+                    map_file(&MapRole::Mtl(kw_l.clone()))
+                };
+                let file = write_opts.reference(own.as_deref().unwrap_or(Path::new(&file)), dir);
                 writeln!(w, "{}", join_map_line(&kw, &opts, &file))?;
+                written.push(kw_l);
             } else {
                 writeln!(w, "{line}")?;
+            }
+        }
+        // Maps this material has that its statements do not name (a sheet that gathers
+        // materials with and without them).
+        for map in &m.maps {
+            if let MapRole::Mtl(kw) = &map.role
+                && !written.contains(kw)
+                && let Some(p) = map_file(&map.role)
+            {
+                writeln!(w, "{}", join_map_line(kw, "", &write_opts.reference(&p, dir)))?;
             }
         }
         if let Some(s) = m.sheet.and_then(|s| sheet_ref.get(s.idx())) {

@@ -255,6 +255,7 @@ impl<'p> Reader<'p> {
                 name: stem.unwrap_or_else(|| format!("texture{}", sheet.0)),
                 sheet: Some(sheet),
                 extra: Vec::new(),
+                ..Default::default()
             });
         }
     }

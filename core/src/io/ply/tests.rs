@@ -519,9 +519,19 @@ fn sample_model(dir: &Path) -> Model {
         },
     ];
     let materials = vec![
-        Material { name: "m0".into(), sheet: Some(SheetId(0)), extra: vec![] },
-        Material { name: "m1".into(), sheet: Some(SheetId(1)), extra: vec![] },
-        Material { name: "plain".into(), sheet: None, extra: vec![] },
+        Material {
+            name: "m0".into(),
+            sheet: Some(SheetId(0)),
+            extra: vec![],
+            ..Default::default()
+        },
+        Material {
+            name: "m1".into(),
+            sheet: Some(SheetId(1)),
+            extra: vec![],
+            ..Default::default()
+        },
+        Material { name: "plain".into(), sheet: None, extra: vec![], ..Default::default() },
     ];
     let n = |a, b, c| Some([a, b, c].map(crate::NormalId));
     let faces = vec![

@@ -88,7 +88,12 @@ pub(super) fn texture(
     let mappings = face_mappings(atlas);
     let refs: Vec<&TileStore> = photos.stores.iter().collect();
     // Gutters come after smoothing, so they carry the corrected colours.
-    let ropts = ResampleOptions { dilate: 0, push_pull: false, work_dir: work_dir.to_path_buf() };
+    let ropts = ResampleOptions {
+        dilate: 0,
+        push_pull: false,
+        work_dir: work_dir.to_path_buf(),
+        normals: false,
+    };
     let mut output = resample_sheets(&refs, &mappings, &atlas.packed.sheet_sizes, &ropts)?;
     let covs = to_common_exposure(atlas, &mappings, gains, &mut output.sheets);
     // Every sub-chart gets its gutter ring from its photo at its pyramid level (see

@@ -18,6 +18,7 @@ mod pixel;
 mod pushpull;
 #[cfg(test)]
 mod tests;
+mod turn;
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -58,6 +59,9 @@ pub struct ResampleOptions {
     pub push_pull: bool,
     /// Folder of the output tile files (and of push-pull's temporary pyramid levels).
     pub work_dir: PathBuf,
+    /// The sheets hold tangent-space normals: the `(x, y)` of every texel turn with its face's
+    /// chart (see `turn`), copied texels of grid-preserved faces exactly.
+    pub normals: bool,
 }
 
 /// What [`resample_sheets`] did. Texel counts sum over all output sheets; the timings are wall
@@ -139,6 +143,8 @@ pub struct ResampleOutput {
 #[derive(Clone, Copy)]
 struct Plan {
     exact: Option<GridTransform>,
+    /// How a normal turns on this face; `None` for the identity and for colour sheets.
+    turn: Option<turn::Turn>,
 }
 
 fn mapping_err(msg: String) -> TextureError {
@@ -151,6 +157,7 @@ fn plan_face(
     f: &FaceMapping,
     inputs: usize,
     outputs: usize,
+    normals: bool,
 ) -> Result<Plan, TextureError> {
     if f.src_sheet as usize >= inputs {
         return Err(mapping_err(format!(
@@ -173,7 +180,12 @@ fn plan_face(
             (q[0] - f.dst[c][0]).abs() <= 1e-6 && (q[1] - f.dst[c][1]).abs() <= 1e-6
         })
     });
-    Ok(Plan { exact })
+    let turn = match (normals, exact) {
+        (false, _) => None,
+        (true, Some(g)) => turn::Turn::of_grid(g),
+        (true, None) => turn::Turn::of_triangles(&f.src, &f.dst),
+    };
+    Ok(Plan { exact, turn })
 }
 
 /// The tiles `[tx0, tx1] × [ty0, ty1]` the bounding box of an output triangle overlaps, or `None`
@@ -303,7 +315,7 @@ pub fn resample_sheets(
     let plans = faces
         .iter()
         .enumerate()
-        .map(|(k, f)| plan_face(k, f, inputs.len(), out_sizes.len()))
+        .map(|(k, f)| plan_face(k, f, inputs.len(), out_sizes.len(), opts.normals))
         .collect::<Result<Vec<Plan>, _>>()?;
     let mut report = ResampleReport {
         sheets: out_sizes.len(),

@@ -104,7 +104,11 @@ impl Context<'_> {
                 {
                     let o = (ly * TILE + first - rect.x0) as usize * bpp;
                     let n = last - first + 1;
-                    copy_run(&mut px[o..o + n as usize * bpp], src, start, step, n, bpp);
+                    let run = &mut px[o..o + n as usize * bpp];
+                    copy_run(run, src, start, step, n, bpp);
+                    if let Some(turn) = plan.turn {
+                        run.chunks_exact_mut(bpp).for_each(|p| turn.apply(p, self.format));
+                    }
                     counts.copied += u64::from(n);
                     return;
                 }
@@ -122,6 +126,9 @@ impl Context<'_> {
                         dst_h,
                         &mut counts,
                     );
+                    if let Some(turn) = plan.turn {
+                        turn.apply(out, self.format);
+                    }
                 }
             });
         }
@@ -170,6 +177,9 @@ impl Context<'_> {
                     } else {
                         conv.read(src.pixel(x, y), &mut value);
                         store_pixel(&mut px[o..o + bpp], self.format, &value);
+                    }
+                    if let Some(turn) = plan.turn {
+                        turn.apply(&mut px[o..o + bpp], self.format);
                     }
                     bits[w] |= m;
                     counts.ring += 1;

@@ -60,7 +60,7 @@ fn covered(tri: [[f64; 2]; 3], w: u32, h: u32) -> Vec<(u32, u32, [f64; 3])> {
 }
 
 fn opts(dir: &Path, dilate: u32, push_pull: bool) -> ResampleOptions {
-    ResampleOptions { dilate, push_pull, work_dir: dir.to_path_buf() }
+    ResampleOptions { dilate, push_pull, work_dir: dir.to_path_buf(), normals: false }
 }
 
 /// Texel-space point of a face's source for barycentrics `b`.

@@ -6,13 +6,14 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{Value, json};
 
+use super::super::maps::{self, GLTF_ROLES};
 use super::super::reader::texture_info_transform;
 use super::super::refs::array_mut;
 use super::super::{GltfScene, output, uri};
 use super::Additions;
-use crate::index::SheetId;
+use crate::index::{MapSheetId, SheetId};
 use crate::io::{IoError, WriteOptions};
-use crate::model::{Material, Model};
+use crate::model::{ImageSource, Material, Model};
 
 /// Points every material at the texture of its current sheet (one new texture and image per
 /// sheet, KHR_texture_transform dropped since the UVs are baked), and makes the original
@@ -37,6 +38,7 @@ pub(super) fn rewrite_materials(
         binary,
         orig_mats: orig.get("materials").and_then(Value::as_array).map_or(0, Vec::len),
         sheet_texture: HashMap::new(),
+        map_texture: HashMap::new(),
         default_sampler: None,
     };
     for (i, mat) in model.materials.iter().enumerate() {
@@ -84,6 +86,8 @@ struct MaterialWriter<'a> {
     orig_mats: usize,
     /// The new texture of each sheet, made when a material first uses it.
     sheet_texture: HashMap<SheetId, usize>,
+    /// The new texture of each map sheet likewise.
+    map_texture: HashMap<MapSheetId, usize>,
     /// The sampler of the first original base-colour texture, for new materials.
     default_sampler: Option<Value>,
 }
@@ -98,9 +102,15 @@ impl MaterialWriter<'_> {
         i: usize,
         mat: &Material,
     ) -> Result<Value, IoError> {
-        let mut mj = if i < self.orig_mats {
-            let mut mj = self.orig["materials"][i].clone();
-            if mj.get("name").is_some() || mat.name != format!("material{i}") {
+        // A material a pipeline made keeps the properties of the input material it comes from;
+        // any other keeps its own.
+        let base = match mat.source {
+            Some(s) => Some(s.idx()).filter(|&s| s < self.orig_mats),
+            None => Some(i).filter(|&i| i < self.orig_mats),
+        };
+        let mut mj = if let Some(b) = base {
+            let mut mj = self.orig["materials"][b].clone();
+            if mj.get("name").is_some() || mat.name != format!("material{b}") {
                 mj["name"] = json!(mat.name);
             }
             mj
@@ -111,11 +121,14 @@ impl MaterialWriter<'_> {
             mj["pbrMetallicRoughness"] = json!({});
         }
         let old_info = mj["pbrMetallicRoughness"].get("baseColorTexture").cloned();
+        if mat.source.is_some() {
+            self.rewrite_maps(doc, add, mat, &mut mj, base.is_some())?;
+        }
         match mat.sheet {
             Some(sheet) => {
                 let tex = self.sheet_texture(doc, add, i, sheet, old_info.as_ref())?;
                 mj["pbrMetallicRoughness"]["baseColorTexture"] =
-                    self.base_colour_info(i, tex, old_info);
+                    base_colour_info(base.is_some(), tex, old_info);
             }
             None => {
                 if let Some(o) = mj["pbrMetallicRoughness"].as_object_mut() {
@@ -124,6 +137,42 @@ impl MaterialWriter<'_> {
             }
         }
         Ok(mj)
+    }
+
+    /// Points the maps of material `mat` (one a pipeline made) at their new textures, and
+    /// removes those of its JSON `mj` that read the base colour's coordinates but were not
+    /// carried over, so that no texture is read through UVs it was not made for.
+    fn rewrite_maps(
+        &mut self,
+        doc: &mut Value,
+        add: &mut Additions,
+        mat: &Material,
+        mj: &mut Value,
+        from_orig: bool,
+    ) -> Result<(), IoError> {
+        for role in &GLTF_ROLES {
+            let old = maps::role_info(mj, role).cloned();
+            let Some(ms) = mat.map(role) else {
+                if old.as_ref().is_some_and(|o| maps::follows_colour(mj, o)) {
+                    maps::remove_role(mj, role);
+                }
+                continue;
+            };
+            let tex = match self.map_texture.get(&ms) {
+                Some(&t) => t,
+                None => {
+                    let image = &self.model.map_sheets[ms.idx()].image;
+                    let t = self.new_texture(doc, add, image, old.as_ref())?;
+                    self.map_texture.insert(ms, t);
+                    t
+                }
+            };
+            let info = base_colour_info(from_orig && old.is_some(), tex, old);
+            if let Some(slot) = maps::role_info_mut(mj, role) {
+                *slot = info;
+            }
+        }
+        Ok(())
     }
 
     /// The texture of `sheet`, made (with its image) on first use by material `i`, whose
@@ -142,8 +191,22 @@ impl MaterialWriter<'_> {
         let sheet_data = self.model.sheets.get(sheet.idx()).ok_or_else(|| {
             IoError::invalid(self.path, format!("material {i}: sheet {sheet} does not exist"))
         })?;
+        let t = self.new_texture(doc, add, &sheet_data.image, old_info)?;
+        self.sheet_texture.insert(sheet, t);
+        Ok(t)
+    }
+
+    /// A new texture and image for `image`, with the sampler of the original texture info
+    /// `old_info` (else the first such sampler seen).
+    fn new_texture(
+        &mut self,
+        doc: &mut Value,
+        add: &mut Additions,
+        image: &ImageSource,
+        old_info: Option<&Value>,
+    ) -> Result<usize, IoError> {
         let mut img = output::sheet_image(
-            &sheet_data.image,
+            image,
             &self.out_dir,
             self.opts,
             self.binary,
@@ -170,33 +233,31 @@ impl MaterialWriter<'_> {
         }
         let textures = array_mut(doc, "textures");
         textures.push(t);
-        self.sheet_texture.insert(sheet, textures.len() - 1);
         Ok(textures.len() - 1)
     }
+}
 
-    /// Material `i`'s base-colour texture info pointing at texture `tex`: the original info
-    /// without its texture transform (the UVs are baked), keeping its UV set.
-    fn base_colour_info(&self, i: usize, tex: usize, old_info: Option<Value>) -> Value {
-        let set = match &old_info {
-            Some(o) if i < self.orig_mats => {
-                texture_info_transform(o, "baseColorTexture").map_or(0, |x| x.set)
-            }
-            _ => 0,
-        };
-        let mut info = old_info.filter(Value::is_object).unwrap_or_else(|| json!({}));
-        info["index"] = json!(tex);
-        if let Some(o) = info.as_object_mut() {
-            o.remove("texCoord");
-            if let Some(Value::Object(e)) = o.get_mut("extensions") {
-                e.remove("KHR_texture_transform");
-                if e.is_empty() {
-                    o.remove("extensions");
-                }
+/// A texture info pointing at texture `tex`: the original info `old_info` (of an original
+/// material when `from_orig`) without its texture transform (the UVs are baked), keeping its UV
+/// set.
+fn base_colour_info(from_orig: bool, tex: usize, old_info: Option<Value>) -> Value {
+    let set = match &old_info {
+        Some(o) if from_orig => texture_info_transform(o, "baseColorTexture").map_or(0, |x| x.set),
+        _ => 0,
+    };
+    let mut info = old_info.filter(Value::is_object).unwrap_or_else(|| json!({}));
+    info["index"] = json!(tex);
+    if let Some(o) = info.as_object_mut() {
+        o.remove("texCoord");
+        if let Some(Value::Object(e)) = o.get_mut("extensions") {
+            e.remove("KHR_texture_transform");
+            if e.is_empty() {
+                o.remove("extensions");
             }
         }
-        if set != 0 {
-            info["texCoord"] = json!(set);
-        }
-        info
     }
+    if set != 0 {
+        info["texCoord"] = json!(set);
+    }
+    info
 }
