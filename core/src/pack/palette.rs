@@ -9,10 +9,10 @@
 //! output sheets, painted with the input's bilinear colour at that point, and every face of that
 //! point is mapped onto the block's centre. A segment face (its corners on a line) shows the
 //! colours along its segment: its block is a strip, each column painted with the input's colour
-//! at one point of the segment (the first and last columns at its two farthest corners, the
-//! others evenly between), every row alike, and the face is mapped onto the line through the
-//! block's middle, each corner at its own place along the segment. Bilinear sampling along that
-//! line then interpolates the input's colours along the segment, at the block's resolution.
+//! at its point of the segment (every row alike), and the face is mapped onto the line through the
+//! block's middle at the segment's input length (so it keeps its UV border), each corner at its
+//! own place. A segment longer than the block is shortened to fit; bilinear sampling along the line
+//! then interpolates the input's colours along it at the block's resolution.
 //!
 //! The block is aligned to a multiple of its side on the pixel grid (columns from the left, rows
 //! from the top, as the encoders see them) and sized so that nothing reading it mixes in another
@@ -147,23 +147,30 @@ impl Palette {
     }
 
     /// Where a face corner lying at `t` along block `b`'s segment goes, on a sheet `height`
-    /// texels high: on the line through the block's middle, from the first column's centre
-    /// (`t = 0`) to the last's (`t = 1`); the block's centre for a point.
+    /// texels high: on the line through the block's middle, the segment at its input length (at
+    /// most the distance between the first and last columns' centres) centred on the block; the
+    /// block's centre for a point.
     pub fn corner(&self, b: u32, t: f64, height: u32) -> [f64; 2] {
         let block = &self.blocks[b as usize];
+        let (start, len) = self.strip(block);
+        let y = f64::from(height) - f64::from(block.row * self.side) - 0.5 * f64::from(self.side);
+        [start + t * len, y]
+    }
+
+    /// Where a block's segment starts on its middle line, and its length there (0 for a point):
+    /// the input length, so that the face keeps its UV border, but no more than fits between
+    /// the centres of the first and last columns.
+    fn strip(&self, block: &PaletteBlock) -> (f64, f64) {
         let s = f64::from(self.side);
-        let x0 = f64::from(block.col * self.side);
-        let y = f64::from(height) - f64::from(block.row * self.side) - 0.5 * s;
-        if block.ends[0] == block.ends[1] {
-            return [x0 + 0.5 * s, y];
-        }
-        [x0 + 0.5 + t * (s - 1.0), y]
+        let [a, e] = block.ends;
+        let len = (e[0] - a[0]).hypot(e[1] - a[1]).min(s - 1.0).max(0.0);
+        (f64::from(block.col * self.side) + 0.5 * (s - len), len)
     }
 
     /// Two face mappings per block that paint its texels with the colours of its segment: a
     /// point block's input triangles collapse onto the point, so every texel samples it; a
-    /// segment block's map each column's centre onto its point of the segment (see
-    /// [`Palette::corner`]), every row alike.
+    /// segment block's map the strip's middle line onto the segment (see [`Palette::corner`]),
+    /// every row alike, and beyond its ends onto the line's continuation.
     pub fn mappings(&self, sheet_sizes: &[(u32, u32)]) -> Vec<FaceMapping> {
         let s = f64::from(self.side);
         let mut out = Vec::with_capacity(2 * self.blocks.len());
@@ -171,12 +178,14 @@ impl Palette {
             let h = f64::from(sheet_sizes[b.sheet as usize].1);
             let (x0, top) = (f64::from(b.col) * s, h - f64::from(b.row) * s);
             let (x1, bottom) = (x0 + s, top - s);
-            // The input points of the block's left and right edges, half a column beyond the
-            // segment's ends (the same point for a point block).
+            // The input points of the block's left and right edges.
             let [a, e] = b.ends;
-            let reach = if s > 1.0 { 0.5 / (s - 1.0) } else { 0.0 };
-            let at = |t: f64| [a[0] + t * (e[0] - a[0]), a[1] + t * (e[1] - a[1])];
-            let (left, right) = (at(-reach), at(1.0 + reach));
+            let (start, len) = self.strip(b);
+            let at = |x: f64| {
+                let t = if len > 0.0 { (x - start) / len } else { 0.0 };
+                [a[0] + t * (e[0] - a[0]), a[1] + t * (e[1] - a[1])]
+            };
+            let (left, right) = (at(x0), at(x1));
             for (dst, src) in [
                 ([[x0, bottom], [x1, bottom], [x1, top]], [left, right, right]),
                 ([[x0, bottom], [x1, top], [x0, top]], [left, right, left]),
@@ -485,8 +494,10 @@ mod tests {
         assert_eq!((p.blocks.len(), p.face_along[0]), (2, along));
         let (block, h) = (p.blocks[0], 32u32);
         let maps = p.mappings(&sizes);
-        // Every texel centre of the strip samples the segment's point for its column, whatever
-        // its row: the first column the first end, the last the second.
+        // The segment is 6.7 texels long, more than the 3 between the first and last columns'
+        // centres: it is shortened to them, and every texel centre of the strip samples the
+        // segment's point for its column, whatever its row (the first column the first end, the
+        // last the second).
         for m in &maps[0..2] {
             for (i, j) in covered(m, sizes[0]) {
                 let c = [f64::from(i) + 0.5, f64::from(h - j) - 0.5];
@@ -508,6 +519,11 @@ mod tests {
         assert_eq!(p.corner(0, 0.0, h), [x0 + 0.5, y]);
         assert_eq!(p.corner(0, 1.0, h), [x0 + 3.5, y]);
         assert_eq!(p.centre(1, h)[1], f64::from(h - p.blocks[1].row * 4) - 2.0);
+        // A short segment keeps its input length, centred on the block.
+        let short = PaletteFace { face: 2, src_sheet: 0, ends: [[2.0, 3.0], [3.0, 3.0]], along };
+        let p = place_palette(&[short], 1, std::iter::empty(), &mut sizes, space(4, (32, 32)));
+        let x0 = f64::from(p.blocks[0].col * 4);
+        assert_eq!((p.corner(0, 0.0, h)[0], p.corner(0, 1.0, h)[0]), (x0 + 1.5, x0 + 2.5));
     }
 
     #[test]

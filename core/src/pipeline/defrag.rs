@@ -2,7 +2,6 @@
 //! synthesis → write), with the plugins chosen by name from a [`Registry`] and a serializable run
 //! report.
 
-use crate::index::NONE;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -20,13 +19,16 @@ use crate::defrag::{
 };
 use crate::metrics::{AtlasStats, StatsOptions, atlas_stats};
 use crate::model::Model;
-use crate::pack::palette::{self, Palette, PaletteFace, PaletteSpace};
-use crate::pack::{PackOptions, PackReport, PackedLayout, max_sheet_size, pack_layout};
+use crate::pack::palette::Palette;
+use crate::pack::{PackOptions, PackReport, PackedLayout, max_sheet_size};
 use crate::plugin::{LocalSolver, MergeScorer, Packer, Params, Registry};
 use crate::texture::ImageFormat;
 use crate::texture::resample::ResampleReport;
 use crate::topology::{PreparationReport, Topology};
 use crate::warnings::{Warning, WarningCode};
+use pack::{Merged, pack_stage, pack_warnings};
+
+mod pack;
 
 /// What to run and with which plugins.
 #[derive(Clone, Debug)]
@@ -455,13 +457,6 @@ fn preparation_warnings(topo: &Topology) -> Vec<crate::warnings::Warning> {
     warnings
 }
 
-/// What the packing reads of the merge: the UV border length and the distortion budget left.
-#[derive(Clone, Copy)]
-struct Merged {
-    border_len: f64,
-    budget: EnergyBudget,
-}
-
 /// What the packing and texture stages share.
 struct Run<'a> {
     loaded: &'a mut Loaded,
@@ -501,10 +496,6 @@ impl Run<'_> {
 /// per sheet column and the texture stage a tile file per sheet, so a limit far beyond any
 /// real texture would only turn a typo into gigabytes of memory and disk.
 pub const MAX_SHEET_SIDE: u32 = 65_536;
-
-/// How many times the atlas is packed again for faces detached for texel clashes; the last
-/// round detaches both faces of every pair left.
-const MAX_DETACH_ROUNDS: usize = 4;
 
 /// The largest padding: far beyond the gutter a resampled chart needs.
 pub const MAX_PADDING: u32 = 4096;
@@ -574,42 +565,6 @@ fn option_warnings(pack: &PackOptions) -> Vec<Warning> {
 }
 
 /// What the packing could not honour of the sheet size asked for.
-fn pack_warnings(report: &PackReport) -> Vec<Warning> {
-    let mut warnings = Vec::new();
-    if report.sheets_off_size > 0 {
-        warnings.push(Warning::new(
-            WarningCode::SheetSizeExceeded,
-            format!(
-                "--sheet-size: {} of {} output sheets are larger than the fixed size, because a \
-                 chart does not fit on a sheet of that size (charts {:?})",
-                report.sheets_off_size, report.sheets, report.oversized_charts
-            ),
-        ));
-    }
-    if report.faces_detached > 0 {
-        warnings.push(Warning::new(
-            WarningCode::FacesDetached,
-            format!(
-                "{} faces were cut out of their charts into charts of their own ({} more \
-                 packings), because the texels they cover would otherwise be shared with another \
-                 face of their chart",
-                report.faces_detached, report.detach_rounds
-            ),
-        ));
-    }
-    if report.texel_clashes_left > 0 {
-        warnings.push(Warning::new(
-            WarningCode::TexelClashesLeft,
-            format!(
-                "{} pairs of faces share texels in the output that they did not share in the \
-                 input: each shows the other's colour there",
-                report.texel_clashes_left
-            ),
-        ));
-    }
-    warnings
-}
-
 /// Starts what runs beside the next stages: the input's figures for the report on idle CPU
 /// time (see `background`) and the decode of the input sheets (see `decode_ahead`), after
 /// checking that the work and output folders have room for the run.
@@ -679,99 +634,6 @@ fn merge_stage(
     Ok((merge_opts, merge, layout))
 }
 
-/// The packing: the rigid split, the repair of inherited folds, the packer, and once more
-/// after detaching the faces of texel clashes the packing could not separate.
-fn pack_stage(
-    topo: &mut Topology,
-    charts: &mut PackingCharts,
-    loaded: &Loaded,
-    plugins: &mut Plugins,
-    cfg: &DefragConfig,
-    merged: Merged,
-) -> Result<(PackedLayout, Palette, Option<UntangleReport>), PipelineError> {
-    let sizes = &loaded.input_sheet_sizes;
-    let (palette_faces, segments) = charts.take_palette_faces(topo);
-    let rigid_split = if cfg.pack.split_rigid_ratio > 0.0 {
-        Some(charts.split_rigid(topo, sizes, &cfg.pack, merged.border_len)?)
-    } else {
-        None
-    };
-    let mut untangled = None;
-    if let (Some(opts), false) = (&cfg.untangle, plugins.untangle_solvers.is_empty()) {
-        let solvers = &mut plugins.untangle_solvers;
-        untangled = Some(charts.untangle(topo, sizes, &cfg.pack, solvers, opts, merged.budget)?);
-    }
-    let packer = plugins.packer.as_ref();
-    let mut packed = pack_layout(&charts.layout_input(topo, sizes), packer, &cfg.pack)?;
-    // A packing of other charts puts every face at another sub-texel offset, so a new packing
-    // may clash where the last did not: detach and pack again until none is left, cutting out
-    // both faces of every pair in the last round (a face alone in its chart clashes with no
-    // other).
-    let mut round = 0;
-    while !packed.clashing_pairs.is_empty() && round < MAX_DETACH_ROUNDS {
-        round += 1;
-        let both = round == MAX_DETACH_ROUNDS;
-        let detached = charts.detach_clashes(topo, &packed, both);
-        let earlier = packed.report;
-        packed = pack_layout(&charts.layout_input(topo, sizes), packer, &cfg.pack)?;
-        add_earlier_attempt(&mut packed.report, &earlier, detached);
-    }
-    if let Some(split) = rigid_split {
-        packed.report.rigid_split = split;
-    }
-    let format = output_format(cfg, &loaded.model)?;
-    let space = PaletteSpace {
-        side: palette::block_side(format, cfg.jpeg_quality, cfg.lossy_webp),
-        padding: cfg.pack.padding,
-        max_sheet_size: packed.report.max_sheet_size,
-        may_widen: cfg.pack.sheet_size.is_none(),
-    };
-    let palette =
-        place_palette_blocks(topo, charts, &mut packed, &palette_faces, segments, space, &cfg.pack);
-    Ok((packed, palette, untangled))
-}
-
-/// Places the palette (see `pack::palette`) around the packed charts, and brings the packing's
-/// sheet figures up to date with the sheets it widened or added. Those sheets get the sides the
-/// options allow (`--sheet-size`, `--pow2`, `--align`), as the packer's own sheets do: the blocks
-/// sit at the top left of their cells, so a sheet that grows keeps them in place.
-fn place_palette_blocks(
-    topo: &Topology,
-    charts: &PackingCharts,
-    packed: &mut PackedLayout,
-    faces: &[PaletteFace],
-    segments: usize,
-    space: PaletteSpace,
-    opts: &PackOptions,
-) -> Palette {
-    let tris = (0..charts.face_chart.len())
-        .filter(|&f| charts.face_chart[f] != NONE && packed.face_sheet[f] != NONE)
-        .map(|f| {
-            let tri = [0, 1, 2].map(|k| packed.vert_uv[topo.corner_uv[3 * f + k].idx()]);
-            (packed.face_sheet[f], tri)
-        });
-    let before = packed.sheet_sizes.clone();
-    let mut palette = palette::place_palette(faces, segments, tris, &mut packed.sheet_sizes, space);
-    let texels = |sizes: &[(u32, u32)]| -> u64 {
-        sizes.iter().map(|&(w, h)| u64::from(w) * u64::from(h)).sum()
-    };
-    for (s, size) in packed.sheet_sizes.iter_mut().enumerate() {
-        if before.get(s) != Some(size) {
-            *size = crate::pack::output_sheet_size(*size, opts).0;
-        }
-    }
-    palette.report.texels_added = texels(&packed.sheet_sizes) - texels(&before);
-    let r = &mut packed.report;
-    r.palette = palette.report;
-    if palette.report.texels_added > 0 {
-        let before = r.texels;
-        r.texels += palette.report.texels_added;
-        r.sheets = packed.sheet_sizes.len();
-        r.occupancy *= before as f64 / r.texels as f64;
-    }
-    palette
-}
-
 /// The format of the output sheets: the one asked for, else the first input sheet's.
 fn output_format(cfg: &DefragConfig, model: &Model) -> Result<ImageFormat, PipelineError> {
     Ok(match (cfg.texture_format, model.sheets.first()) {
@@ -779,24 +641,6 @@ fn output_format(cfg: &DefragConfig, model: &Model) -> Result<ImageFormat, Pipel
         (None, Some(s)) => ImageFormat::of_source(&s.image)?,
         (None, None) => ImageFormat::Png,
     })
-}
-
-/// Folds the report of the packing before the clash detachment into the final one.
-fn add_earlier_attempt(r: &mut PackReport, earlier: &PackReport, detached: usize) {
-    r.faces_detached = earlier.faces_detached + detached;
-    r.detach_rounds = earlier.detach_rounds + 1;
-    // The clashes the first packing found; those left are the last packing's.
-    r.texel_clashes = earlier.texel_clashes;
-    r.texel_clash_vertices_moved += earlier.texel_clash_vertices_moved;
-    for (ms, earlier_ms) in [
-        (&mut r.anchors_ms, earlier.anchors_ms),
-        (&mut r.texel_clash_ms, earlier.texel_clash_ms),
-        (&mut r.footprints_ms, earlier.footprints_ms),
-        (&mut r.packing_ms, earlier.packing_ms),
-        (&mut r.finish_ms, earlier.finish_ms),
-    ] {
-        *ms += earlier_ms;
-    }
 }
 
 /// The texture synthesis: the output sheets resampled from the input's and written into the

@@ -79,9 +79,10 @@ const FLOORS: [Floors; 4] = [
     // The reference aborts on the Smithsonian model: every floor is today's figure.
     Floors {
         rel: "smithsonian-usnm1145291/usnm1145291.nodraco.gltf",
-        // 629 and 0.0322 before the written UVs held the budget.
+        // 629 and 0.0322 before the written UVs held the budget and segment faces kept their
+        // length (and so their UV border) on the palette.
         max_charts: 631,
-        min_solidity: 0.0320,
+        min_solidity: 0.0317,
         min_preserved_area: 0.424,
         min_psnr: 44.3,
         // FIXME: goal 60 dB (47.3 today).
