@@ -207,7 +207,7 @@ fn parts_to_split(
                     piece.iter().for_each(|&i| leaving[i] = true);
                 }
             }
-            if grows_far(topo, &adj, &part, &leaving) {
+            if grows_far(topo, adj, &part, &leaving) {
                 continue;
             }
             let cut: f64 = rest[keep]
