@@ -307,7 +307,7 @@ fn budget_warning(distortion: f64, g: f64) -> Option<Warning> {
         Warning::new(
             WarningCode::DistortionOverBudget,
             format!(
-                "the written UVs' mean distortion against the input's is {distortion:.5}, over \
+                "the written UVs' mean distortion against the input's is {distortion:.3e}, over \
                  the budget --global-distortion {g}"
             ),
         )

@@ -41,9 +41,9 @@ pub(super) fn pack_warnings(report: &PackReport) -> Vec<Warning> {
         warnings.push(Warning::new(
             WarningCode::FacesDetached,
             format!(
-                "{} faces were cut out of their charts into charts of their own ({} more \
-                 packings), because the texels they cover would otherwise be shared with another \
-                 face of their chart",
+                "{} faces were cut out of their charts into charts of their own and the atlas \
+                 packed again (rounds: {}), because the texels they cover would otherwise be \
+                 shared with another face of their chart",
                 report.faces_detached, report.detach_rounds
             ),
         ));
