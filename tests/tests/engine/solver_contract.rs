@@ -262,8 +262,8 @@ fn a_merge_with_arap_slim_takes_the_rescue_path_and_stays_valid() {
         report.rescues, report.rescues_passed, report.accepted
     );
     assert!(report.rescues >= 1, "no rescue: {report:?}");
-    // None passes here (nor, today, on the real models with the default share): the rescue's
-    // layouts are judged, and the run stays valid whatever they are.
+    // Whether any rescue passes is not the contract: the rescue's layouts are judged, and the run
+    // stays valid whatever they are.
     assert!(report.rescues_passed <= report.rescues, "{report:?}");
     let c = check(&model, &merged_model(&model, &t));
     assert!(c.faces_kept(), "{c:?}");

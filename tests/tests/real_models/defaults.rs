@@ -32,64 +32,59 @@ struct Floors {
 /// against the input's must not exceed it.
 const BUDGET: f64 = 0.025;
 
-/// The preserved faces' texels are the input's, so the goal for their PSNR is 60 dB (what
-/// bilinear reads across the chart's edge leave); no model meets it yet, so each floor is today's
-/// figure.
+/// The floors: the reference's figures where we meet them (`../shared/tools/README.md`), else the
+/// figures this suite was last calibrated on (history in `benches/results/`), with the goal named.
+/// The goal for the preserved faces' PSNR is 60 dB, which no model meets yet (see
+/// `docs/FIDELITY.md` for why).
 const FLOORS: [Floors; 4] = [
-    // The reference: 711 → 126 charts (79 with area), solidity 0.124, 8.3% preserved, 41.2 dB.
+    // The reference's figures, but for the chart count.
     Floors {
         rel: "meshroom-esp32cam/texturedMesh.obj",
-        // FIXME: the goal is the reference's 79 (86 today); this is 79 + 10%.
+        // FIXME: the goal is the reference's 79; this is 79 + 10%.
         max_charts: 86,
         min_solidity: 0.124,
         min_preserved_area: 0.083,
         min_psnr: 41.2,
-        // FIXME: goal 60 dB (50.9 today).
+        // FIXME: goal 60 dB.
         min_preserved_psnr: 50.9,
         min_zero_uv_psnr: 35.0,
         max_new_flips: 0,
     },
-    // The reference crashes on the plane: every floor is today's figure.
+    // The reference crashes on the plane: every floor is a calibrated figure.
     Floors {
         rel: "sketchfab-plane-meal/scene.gltf",
-        // Since the written UVs hold the budget (the merge keeps 1% of it for the repairs after
-        // it), one chart more than the 59 before.
         max_charts: 60,
         min_solidity: 0.0911,
         min_preserved_area: 0.248,
         min_psnr: 46.3,
-        // FIXME: goal 60 dB (48.3 today).
+        // FIXME: goal 60 dB.
         min_preserved_psnr: 48.3,
         min_zero_uv_psnr: 35.0,
         max_new_flips: 0,
     },
-    // The reference: 7864 → 535 charts (516 with area), solidity 0.0269, 60.5% preserved,
-    // 37.9 dB, 37.9 dB on the faces without UV area.
+    // The reference's figures.
     Floors {
         rel: "venus-realitycapture/venus.nodraco.gltf",
         max_charts: 516,
         min_solidity: 0.0269,
         min_preserved_area: 0.605,
         min_psnr: 37.9,
-        // FIXME: goal 60 dB (44.6 today).
+        // FIXME: goal 60 dB.
         min_preserved_psnr: 44.6,
         min_zero_uv_psnr: 35.0,
         max_new_flips: 0,
     },
-    // The reference aborts on the Smithsonian model: every floor is today's figure.
+    // The reference aborts on the Smithsonian model: every floor is a calibrated figure.
     Floors {
         rel: "smithsonian-usnm1145291/usnm1145291.nodraco.gltf",
-        // 629 and 0.0322 before the written UVs held the budget and segment faces kept their
-        // length (and so their UV border) on the palette.
         max_charts: 631,
         min_solidity: 0.0317,
         min_preserved_area: 0.424,
         min_psnr: 44.3,
-        // FIXME: goal 60 dB (47.3 today).
+        // FIXME: goal 60 dB.
         min_preserved_psnr: 47.3,
-        // 38.2 dB on the evaluator's 30 samples since segment faces keep the colours along
-        // their segment (30.1 before); with 3 M samples (469 on these faces) it is 32.7 dB: the
-        // slivers held inside charts by an edge are the rest. FIXME: goal 35 dB there too.
+        // The evaluator's default draws few samples on these faces, and with many more the figure
+        // is lower: the slivers held inside charts by an edge keep an error. FIXME: 35 dB there.
         min_zero_uv_psnr: 36.0,
         max_new_flips: 0,
     },
