@@ -286,7 +286,10 @@ pub(crate) fn keep_chart_sides(
     Some(stored.iter().map(|&s| how.load(s)).collect())
 }
 
-/// Each face's chart: the smallest face joined to it through shared UV edges (by UV index).
+/// Each face's chart: the smallest face joined to it through shared UV edges (by UV index). A
+/// model about to be written shares one UV record among the faces of a chart, so index edges give
+/// the charts the evaluator finds without welding positions and UV values as
+/// `metrics::edge_chart_labels` does for models read from a file.
 fn edge_charts(model: &Model, n_uvs: usize) -> Vec<u32> {
     let mut edges: Vec<(u64, u32)> = Vec::with_capacity(3 * model.faces.len());
     for (f, face) in model.faces.iter().enumerate() {
