@@ -92,7 +92,10 @@ pub fn merge_charts_parallel(
         let cluster_ms: Vec<f64> = timed.iter().map(|&(_, ms)| ms).collect();
         let results: Vec<ClusterResult> = timed.into_iter().map(|(r, _)| r).collect();
         let largest = cluster_faces.iter().copied().max().unwrap_or(0);
+        // The clusters of a round run side by side and the next round waits for them all.
+        let round_span = results.iter().map(|r| r.report.timings.span_ms).fold(0.0, f64::max);
         import(&mut master, &cluster, &busy, results);
+        master.report.timings.span_ms += round_span;
         master.report.rounds.push(ClusterRound {
             clusters: n_clusters,
             largest_cluster_faces: largest,
@@ -114,13 +117,13 @@ pub fn merge_charts_parallel(
         let mut solver = pool
             .pop()
             .ok_or(DefragError::BadOption { name: "threads", msg: "no solver to run" })?;
-        // A second solver judges operations ahead of the queue (see `speculate`), with the same
-        // result; the serial baseline stays on one thread.
-        master.report.stop = match pool.pop() {
-            Some(mut shadow_solver) if opts.speculate => {
-                master.run_queue_speculative(scorer, &mut *solver, &mut *shadow_solver, deadline)
-            }
-            _ => master.run_queue(scorer, &mut *solver, None, deadline),
+        // The other solvers judge operations ahead of the queue, one shadow engine each (see
+        // `speculate`), with the same result; the serial baseline stays on one thread.
+        master.report.stop = if opts.speculate && !pool.is_empty() {
+            let shadows = pool.len().min(super::speculate::MAX_SHADOWS);
+            master.run_queue_speculative(scorer, &mut *solver, &mut pool[..shadows], deadline)
+        } else {
+            master.run_queue(scorer, &mut *solver, None, deadline)
         };
         if !master.report.rounds.is_empty() {
             master.report.rounds.push(ClusterRound {

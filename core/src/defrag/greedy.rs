@@ -9,6 +9,7 @@ use std::time::Instant;
 
 use super::ops::{EngineOp, OpGeometry, OpState};
 use super::ord::OrdF64;
+use super::span::CriticalPath;
 use super::state::{Engine, MergedLayout};
 use super::{DefragError, MergeOptions, MergeReport, RejectReason, StopReason};
 use crate::plugin::{LocalSolver, MergeScorer, Score, Veto};
@@ -55,28 +56,49 @@ impl Engine<'_> {
         deadline: Option<Instant>,
     ) -> StopReason {
         let mut queue = Queue::new();
+        let mut path = CriticalPath::new(self.t.charts.len());
         self.deferring = self.opts.defer;
+        let t = Instant::now();
         self.fill_queue(scorer, &mut queue, scope);
+        path.book_free(super::ms(t));
         let mut watermark = queue.len();
         let border_stop = self.opts.uv_border_target * self.border_len_input;
-        loop {
+        let stop = loop {
             if let Some(stop) = self.stop_now(border_stop, deadline) {
-                return stop;
+                break stop;
             }
             let Some((_, Reverse(op), version)) = queue.pop() else {
+                let t = Instant::now();
                 if self.start_second_pass(scorer, &mut queue, scope) {
+                    path.book_free(super::ms(t));
                     continue;
                 }
-                return StopReason::QueueEmpty;
+                break StopReason::QueueEmpty;
             };
             if !self.entry_live(op, version) {
                 continue;
             }
             self.report.attempted += 1;
+            let charts = self.op_charts(op);
+            let t = Instant::now();
             let result = self.attempt(op, solver);
+            let judged_ms = super::ms(t);
+            let accepted = result.is_ok();
+            let t = Instant::now();
             self.settle(op, result, scorer, &mut queue, scope);
+            path.book(charts, judged_ms, accepted.then(|| super::ms(t)));
             self.prune_queue(&mut queue, &mut watermark);
-        }
+        };
+        self.book_path(&path);
+        stop
+    }
+
+    /// Adds a queue's work, span and settling to the report's timings.
+    pub(super) fn book_path(&mut self, path: &CriticalPath) {
+        let t = &mut self.report.timings;
+        t.work_ms += path.work_ms;
+        t.span_ms += path.span_ms;
+        t.settle_ms += path.settle_ms;
     }
 
     /// Scores every queued and vetoed operation in `scope` into `queue`.

@@ -14,13 +14,14 @@
 //! - `verdict`: the checks of a solved attempt; `commit`: its commit, rollback and record;
 //! - `attempt`: one merge attempt from alignment to commit or rollback;
 //! - `greedy`: the priority queue and the rescoring after each accepted merge;
-//! - `speculate`: the last round's queue with a second engine judging operations ahead of it;
+//! - `speculate`: the last round's queue with shadow engines judging operations ahead of it;
+//! - `span`: the queue's work and span, which bound what more cores can gain;
 //! - `clusters`: parallel queues over clusters of charts;
 //! - `zero_area`: charts of zero-area faces joined to a neighbouring chart at the end;
 //! - `unfold`: charts folded flat onto themselves laid out again as a flat net at the end.
 //!
 //! Layers: a module imports only from the layers below its own.
-//! 0. `undo`, `grid`, `kernel`, `ord`, `output`: plain data and pure functions that know nothing
+//! 0. `undo`, `grid`, `kernel`, `ord`, `output`, `span`: plain data and pure functions that know nothing
 //!    of the engine;
 //! 1. `ops::table` and the scratch types (`ops::scratch`, `patch::scratch`, `separate::scratch`,
 //!    `verdict::scratch`, `attempt::scratch`);
@@ -43,6 +44,7 @@ mod ord;
 mod output;
 mod patch;
 mod separate;
+mod span;
 mod speculate;
 mod state;
 mod undo;
@@ -116,9 +118,9 @@ pub struct MergeOptions {
     /// The clusters' first round waits for the slower cluster and their last round runs on one
     /// queue anyway. Clusters remain for machines with many cores.
     pub cluster_faces: u32,
-    /// With a second solver (two or more threads), let a second engine judge operations further
-    /// down a whole-atlas queue while the first settles the top one (see `speculate`). The result
-    /// is the serial one bit for bit; off, the queue runs on one thread.
+    /// With more than one solver (two or more threads), let shadow engines judge operations
+    /// further down a whole-atlas queue while the first settles the top one (see `speculate`). The
+    /// result is the serial one bit for bit; off, the queue runs on one thread.
     pub speculate: bool,
     /// Try every inter-chart merge first with the staying chart held still: the seam is fused
     /// where that chart has it and only the moving chart's side is re-optimized; if any check
@@ -379,6 +381,13 @@ pub struct MergeTimings {
     pub judged_ahead: u64,
     pub judgements_taken: u64,
     pub wait_ms: f64,
+    /// The queue's work (every judgement, commit and scoring, in sum: its time on one core), its
+    /// span (the longest chain of judgements and commits that must run in order, from the charts
+    /// each reads and writes: its time on unbounded cores), and the settling (commits and
+    /// rescoring) that the master does in queue order. See `span`.
+    pub work_ms: f64,
+    pub span_ms: f64,
+    pub settle_ms: f64,
 }
 
 /// Why the greedy loop ended.
@@ -519,5 +528,9 @@ impl MergeReport {
         t.judged_ahead += u.judged_ahead;
         t.judgements_taken += u.judgements_taken;
         t.wait_ms += u.wait_ms;
+        // Clusters of a round run side by side: their spans are combined by the round (see
+        // `clusters`), not summed here.
+        t.work_ms += u.work_ms;
+        t.settle_ms += u.settle_ms;
     }
 }

@@ -1,10 +1,10 @@
 //! Speculative attempts on a queue that holds the whole atlas (the default merge, and the last
-//! round of the clusters): a second
-//! engine (the shadow, a replica of the master on its own copy of the topology) judges operations
-//! that are further down the queue while the master attempts the one at the top, and the master
-//! takes a judgement over when it reaches that operation, if nothing the judgement read has
-//! changed since. The master still settles every operation in queue order, so the result is the
-//! serial one whatever the timing.
+//! round of the clusters): shadow engines (replicas of the master, each on its own copy of the
+//! topology, one per worker thread beyond the first) judge operations that are further down the
+//! queue while the master attempts the one at the top, and the master takes a judgement over
+//! when it reaches that operation, if nothing the judgement read has changed since. The master
+//! still settles every operation in queue order, so the result is the serial one whatever the
+//! timing and however many shadows there are.
 //!
 //! What an attempt reads: the faces, UV vertices, half-edges and caches of its two charts (the
 //! grid only for faces of those charts, and only as a set: every candidate is tested against its
@@ -14,18 +14,23 @@
 //! the later commits touched either of its charts, and every budget check along its way comes out
 //! the same with the master's energy sum as with the one it was judged against.
 //!
-//! The shadow keeps up by replaying each of the master's commits from a record of the slots it
+//! Each shadow keeps up by replaying each of the master's commits from a record of the slots it
 //! wrote (`Engine::apply_record`), in the master's order, so its state after `at` replays is the
 //! master's after `at` commits, bit for bit.
 //!
-//! The shadow judges its requests most urgent first (by queue key, so the one the master reaches
+//! A shadow judges its requests most urgent first (by queue key, so the one the master reaches
 //! soonest goes first, whatever order they were asked in), after replaying every commit sent
 //! before it, and drops unjudged a request that a commit since has touched (its judgement could
 //! never be taken). First come, first served left the master waiting for the top operation behind
 //! requests further down, and spent the shadow on judgements already overturned; by key the merge
-//! is a little faster.
+//! is a little faster. Requests go to the shadow with the fewest pending.
+//!
+//! How far this can go on many cores: `span` measures the queue's work and its span from the
+//! charts each judgement reads and each commit writes; their ratio bounds the speed-up.
 
 use std::cmp::Reverse;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::time::Instant;
 
@@ -33,24 +38,32 @@ use super::commit::CommitRecord;
 use super::greedy::Queue;
 use super::ops::EngineOp;
 use super::ord::OrdF64;
-use super::state::Engine;
+use super::span::CriticalPath;
+use super::state::{Engine, Parts};
 use super::{MergeReport, RejectReason, StopReason};
 use crate::plugin::{LocalSolver, MergeScorer};
-use crate::topology::ChartId;
+use crate::topology::{ChartId, Topology};
+use rayon::prelude::*;
 
-/// Judgements the shadow may have queued or in progress at once. With fewer the shadow idles
+/// Judgements each shadow may have queued or in progress at once. With fewer a shadow idles
 /// while the master attempts an operation itself; with more, the master waits longer for the
 /// one at the top. Four was the fastest of the caps tried on the shared models (see
 /// `benches/results/moved-comments.md`); larger caps cut the shadow's idle time but made the
 /// master wait longer, and the merge was no faster.
 const MAX_IN_FLIGHT: usize = 4;
 
-/// Judgements the shadow may have pending while the master attempts the top operation itself
+/// Judgements each shadow may have pending while the master attempts the top operation itself
 /// (nobody could judge it ahead: a commit just changed one of its charts). The master is then
 /// away for a whole attempt, and with `MAX_IN_FLIGHT` the shadow ran out of work. Raising the
 /// cap only for that time keeps the short wait for the top operation that the smaller cap gives
 /// everywhere else; the gain measured is small, near the noise.
 const OWN_ATTEMPT_IN_FLIGHT: usize = 8;
+
+/// The most shadow engines a queue runs with, whatever the thread count. Each holds a copy of the
+/// topology and the engine state (a few hundred bytes per face), and the speed-up is bounded by
+/// the queue's work over its span (see `span`), which the shared models keep to a few dozen: more
+/// shadows would cost memory for judgements that wait on the same chains.
+pub(super) const MAX_SHADOWS: usize = 15;
 
 /// Queue entries looked at, from the top, for an operation the shadow may judge. Looking further
 /// finds independent operations while the top of the queue is all of one large chart's, at the
@@ -64,8 +77,8 @@ type Key = (OrdF64, Reverse<u32>, u32);
 
 /// What the master sends the shadow, in order.
 enum ToShadow {
-    /// A commit of the master, to replay.
-    Replay(Box<CommitRecord>),
+    /// A commit of the master, to replay (one record shared by every shadow).
+    Replay(Arc<CommitRecord>),
     /// An operation to judge (its table entry as the master has it, its queue key, its charts,
     /// and the master's commit count when it was asked for).
     Judge(Box<Request>),
@@ -103,8 +116,9 @@ struct Judged {
     energy_num: f64,
     checks: Vec<(f64, f64)>,
     outcome: Result<CommitRecord, RejectReason>,
-    /// The counts and times of the attempt (no commit in them).
+    /// The counts and times of the attempt (no commit in them), and how long it took.
     report: MergeReport,
+    ms: f64,
 }
 
 /// A judgement asked for and not yet received.
@@ -113,7 +127,17 @@ struct InFlight {
     version: u32,
     at: usize,
     charts: (ChartId, ChartId),
+    /// The shadow asked.
+    shadow: usize,
 }
+
+/// What a shadow's `started` flag holds while it judges `op` at `version`; `NOT_STARTED` between
+/// judgements (no operation has both an id and a version of `u32::MAX`).
+fn started_key(op: u32, version: u32) -> u64 {
+    (u64::from(op) << 32) | u64::from(version)
+}
+
+const NOT_STARTED: u64 = u64::MAX;
 
 /// Whether charts `c` are untouched by the commits in `commits`.
 fn untouched(c: (ChartId, ChartId), commits: &[(ChartId, ChartId)]) -> bool {
@@ -126,36 +150,53 @@ fn share(x: (ChartId, ChartId), y: (ChartId, ChartId)) -> bool {
 }
 
 impl Engine<'_> {
-    /// The greedy loop over the whole atlas (no scope) with a shadow engine judging ahead on
-    /// `shadow_solver`: the same result as `run_queue`, in less time on two cores.
+    /// The greedy loop over the whole atlas (no scope) with one shadow engine per solver of
+    /// `shadow_solvers` judging ahead: the same result as `run_queue`, in less time on more cores.
     pub(crate) fn run_queue_speculative(
         &mut self,
         scorer: &dyn MergeScorer,
         solver: &mut dyn LocalSolver,
-        shadow_solver: &mut dyn LocalSolver,
+        shadow_solvers: &mut [Box<dyn LocalSolver>],
         deadline: Option<Instant>,
     ) -> StopReason {
         // The copies are made on workers of the pool, whose allocator arenas hold what the
         // cluster forks of the earlier rounds freed: made on this thread they would come on top
         // of it and raise the peak memory. The topology and the engine's state are copied side
-        // by side, and the shadow assembles its engine itself, so that the master waits for
+        // by side, and each shadow assembles its engine itself, so that the master waits for
         // neither longer than it must.
-        let (mut topo, parts) = rayon::join(|| self.t.clone(), || self.parts());
-        let opts = self.opts.clone();
-        let (to_shadow, shadow_rx) = channel::<ToShadow>();
+        let this = &*self;
+        let copies: Vec<(Topology, Parts)> = (0..shadow_solvers.len())
+            .into_par_iter()
+            .map(|_| rayon::join(|| this.t.clone(), || this.parts()))
+            .collect();
         let (shadow_tx, from_shadow) = channel::<FromShadow>();
         std::thread::scope(|s| {
-            let shadow_loop = move || {
-                let mut shadow = Engine::assemble(&mut topo, opts, parts);
-                shadow_loop(&mut shadow, shadow_solver, shadow_rx, shadow_tx);
-            };
-            // Named for profilers; a thread that cannot be spawned leaves the master alone (its
-            // judgements are never taken: the channel is closed), still with the serial result.
-            let _ = std::thread::Builder::new()
-                .name("scanatlas-shadow".into())
-                .spawn_scoped(s, shadow_loop);
-            // Dropping the sender on return ends the shadow's loop.
-            self.speculative_loop(scorer, solver, to_shadow, &from_shadow, deadline)
+            let mut to_shadows = Vec::with_capacity(copies.len());
+            let started: Vec<Arc<AtomicU64>> =
+                (0..copies.len()).map(|_| Arc::new(AtomicU64::new(NOT_STARTED))).collect();
+            for (i, ((mut topo, parts), shadow_solver)) in
+                copies.into_iter().zip(shadow_solvers.iter_mut()).enumerate()
+            {
+                let (to_shadow, shadow_rx) = channel::<ToShadow>();
+                let (opts, tx) = (self.opts.clone(), shadow_tx.clone());
+                let flag = Arc::clone(&started[i]);
+                let shadow_loop = move || {
+                    let mut shadow = Engine::assemble(&mut topo, opts, parts);
+                    shadow_loop(&mut shadow, &mut **shadow_solver, shadow_rx, tx, &flag);
+                };
+                // Named for profilers; a thread that cannot be spawned drops its receiver, so
+                // the master never asks it again and keeps the serial result.
+                let spawned = std::thread::Builder::new()
+                    .name(format!("scanatlas-shadow-{i}"))
+                    .spawn_scoped(s, shadow_loop);
+                to_shadows.push(spawned.is_ok().then_some(to_shadow));
+            }
+            // Only the shadows hold senders now: once they are all gone, waiting for a
+            // judgement ends instead of hanging.
+            drop(shadow_tx);
+            // Dropping the senders on return ends the shadows' loops.
+            let links = Links { to_shadows, started };
+            self.speculative_loop(scorer, solver, links, &from_shadow, deadline)
         })
     }
 
@@ -163,20 +204,24 @@ impl Engine<'_> {
         &mut self,
         scorer: &dyn MergeScorer,
         solver: &mut dyn LocalSolver,
-        to_shadow: Sender<ToShadow>,
+        links: Links,
         from_shadow: &Receiver<FromShadow>,
         deadline: Option<Instant>,
     ) -> StopReason {
         let mut queue = Queue::new();
+        let mut path = CriticalPath::new(self.t.charts.len());
         self.deferring = self.opts.defer;
+        let t = Instant::now();
         self.fill_queue(scorer, &mut queue, None);
+        path.book_free(super::ms(t));
         let mut watermark = queue.len();
         let border_stop = self.opts.uv_border_target * self.border_len_input;
         let mut s = Pending {
             commits: Vec::new(),
             in_flight: Vec::new(),
             done: Vec::new(),
-            to_shadow: Some(to_shadow),
+            to_shadows: links.to_shadows,
+            started: links.started,
             judged: 0,
         };
         let stop = loop {
@@ -186,7 +231,9 @@ impl Engine<'_> {
             let Some((_, Reverse(op), version)) = queue.pop() else {
                 // Every request was for an operation queued before: none is judged under the
                 // wrong pass (the second pass queues new versions only).
+                let t = Instant::now();
                 if self.start_second_pass(scorer, &mut queue, None) {
+                    path.book_free(super::ms(t));
                     continue;
                 }
                 break StopReason::QueueEmpty;
@@ -204,36 +251,41 @@ impl Engine<'_> {
             self.dispatch(&mut queue, charts, &mut s);
             let judged =
                 self.judgement(op, version, charts, &mut queue, &mut s, solver, from_shadow);
-            let (result, record) = match judged {
+            // The settling (a taken judgement's commit and the rescoring) is timed from here.
+            let settle_start;
+            let (result, record, judged_ms) = match judged {
                 Some(j) => {
                     self.report.absorb(&j.report);
                     self.report.timings.judgements_taken += 1;
+                    settle_start = Instant::now();
                     match j.outcome {
-                        Ok(r) => (Ok(self.apply_record(&r)), Some(r)),
-                        Err(e) => (Err(e), None),
+                        Ok(r) => (Ok(self.apply_record(&r)), Some(r), j.ms),
+                        Err(e) => (Err(e), None, j.ms),
                     }
                 }
                 None => {
                     // The master is away for a whole attempt: give the shadow enough to judge
                     // meanwhile (see `OWN_ATTEMPT_IN_FLIGHT`).
                     self.dispatch_up_to(&mut queue, charts, &mut s, OWN_ATTEMPT_IN_FLIGHT);
-                    self.attempt_recorded(op, solver)
+                    let t = Instant::now();
+                    let (result, record) = self.attempt_recorded(op, solver);
+                    settle_start = Instant::now();
+                    (result, record, super::ms(t))
                 }
             };
+            let accepted = result.is_ok();
             if let Some(r) = record {
                 let c = (r.g.a, r.g.b);
                 s.commits.push(c);
                 s.done.retain(|j| !share(j.charts, c));
-                if let Some(tx) = &s.to_shadow
-                    && tx.send(ToShadow::Replay(Box::new(r))).is_err()
-                {
-                    s.to_shadow = None;
-                }
+                s.replay(Arc::new(r));
             }
             self.settle(op, result, scorer, &mut queue, None);
+            path.book(charts, judged_ms, accepted.then(|| super::ms(settle_start)));
             self.prune_queue(&mut queue, &mut watermark);
         };
         self.report.timings.judged_ahead += s.judged;
+        self.book_path(&path);
         stop
     }
 
@@ -246,9 +298,10 @@ impl Engine<'_> {
         charts: (ChartId, ChartId),
         s: &Pending,
     ) -> Option<(Key, (ChartId, ChartId))> {
-        let mut looked = Vec::with_capacity(LOOK_AHEAD);
+        let look_ahead = LOOK_AHEAD * s.to_shadows.len().max(1);
+        let mut looked = Vec::with_capacity(look_ahead);
         let mut found = None;
-        while looked.len() < LOOK_AHEAD {
+        while looked.len() < look_ahead {
             let Some(entry) = queue.pop() else { break };
             let (_, Reverse(op), version) = entry;
             // Stale entries would only be skipped when popped: they need not go back.
@@ -270,12 +323,14 @@ impl Engine<'_> {
         found
     }
 
-    /// Asks the shadow to judge operations from `pick` until `MAX_IN_FLIGHT` are pending.
+    /// Asks the shadows to judge operations from `pick` until each has `MAX_IN_FLIGHT` pending.
     fn dispatch(&self, queue: &mut Queue, charts: (ChartId, ChartId), s: &mut Pending) {
         self.dispatch_up_to(queue, charts, s, MAX_IN_FLIGHT);
     }
 
-    /// Asks the shadow to judge operations from `pick` until `cap` are pending.
+    /// Asks the shadows to judge operations from `pick` until each has `cap` pending: each
+    /// request goes to the live shadow with the fewest pending (which shadow judges what never
+    /// changes the result, only how soon a judgement comes).
     fn dispatch_up_to(
         &self,
         queue: &mut Queue,
@@ -283,19 +338,21 @@ impl Engine<'_> {
         s: &mut Pending,
         cap: usize,
     ) {
-        while s.in_flight.len() < cap {
-            let Some(tx) = &s.to_shadow else { return };
+        while let Some(shadow) = s.least_busy(cap) {
             let Some((key, c)) = self.pick(queue, charts, s) else { return };
             let (_, Reverse(op), version) = key;
             let at = s.commits.len();
             let entry = self.ops[op as usize].clone();
             let deferring = self.deferring;
             let request = Request { op, version, entry, key, charts: c, at, deferring };
-            if tx.send(ToShadow::Judge(Box::new(request))).is_err() {
-                s.to_shadow = None;
-                return;
+            let sent = s.to_shadows[shadow]
+                .as_ref()
+                .is_some_and(|tx| tx.send(ToShadow::Judge(Box::new(request))).is_ok());
+            if sent {
+                s.in_flight.push(InFlight { op, version, at, charts: c, shadow });
+            } else {
+                s.to_shadows[shadow] = None;
             }
-            s.in_flight.push(InFlight { op, version, at, charts: c });
         }
     }
 
@@ -324,7 +381,12 @@ impl Engine<'_> {
                 return holds.then_some(j);
             }
             let f = s.in_flight.iter().find(|f| (f.op, f.version) == (op, version))?;
-            if !untouched(f.charts, &s.commits[f.at..]) {
+            // A request its shadow has not started yet may wait behind a whole judgement of
+            // another operation: the master, which has to settle this one next, judges it
+            // itself rather than wait that long.
+            if !untouched(f.charts, &s.commits[f.at..])
+                || s.started[f.shadow].load(Ordering::Acquire) != started_key(op, version)
+            {
                 return None;
             }
             if let Ok(j) = from_shadow.try_recv() {
@@ -361,7 +423,9 @@ impl Engine<'_> {
         self.checks.record_checks = true;
         self.checks.global_checks.clear();
         let energy_num = self.energy_num;
+        let t = Instant::now();
         let outcome = self.attempt_speculative(op, solver);
+        let ms = super::ms(t);
         self.checks.record_checks = false;
         Judged {
             op,
@@ -372,8 +436,15 @@ impl Engine<'_> {
             checks: std::mem::take(&mut self.checks.global_checks),
             outcome,
             report: std::mem::replace(&mut self.report, report),
+            ms,
         }
     }
+}
+
+/// The master's ends of its links to the shadows.
+struct Links {
+    to_shadows: Vec<Option<Sender<ToShadow>>>,
+    started: Vec<Arc<AtomicU64>>,
 }
 
 /// The master's bookkeeping of the judgements.
@@ -382,13 +453,37 @@ struct Pending {
     commits: Vec<(ChartId, ChartId)>,
     in_flight: Vec<InFlight>,
     done: Vec<Judged>,
-    /// `None` once the shadow is gone.
-    to_shadow: Option<Sender<ToShadow>>,
+    /// One sender per shadow, `None` once that shadow is gone.
+    to_shadows: Vec<Option<Sender<ToShadow>>>,
+    /// Per shadow, the judgement it is making (see `started_key`).
+    started: Vec<Arc<AtomicU64>>,
     /// Judgements made ahead so far.
     judged: u64,
 }
 
 impl Pending {
+    /// The live shadow with the fewest judgements pending, if it has fewer than `cap` (the
+    /// first such shadow on a tie).
+    fn least_busy(&self, cap: usize) -> Option<usize> {
+        (0..self.to_shadows.len())
+            .filter(|&i| self.to_shadows[i].is_some())
+            .map(|i| (self.in_flight.iter().filter(|f| f.shadow == i).count(), i))
+            .min()
+            .filter(|&(pending, _)| pending < cap)
+            .map(|(_, i)| i)
+    }
+
+    /// Sends a commit to every live shadow to replay.
+    fn replay(&mut self, record: Arc<CommitRecord>) {
+        for slot in &mut self.to_shadows {
+            if let Some(tx) = slot
+                && tx.send(ToShadow::Replay(Arc::clone(&record))).is_err()
+            {
+                *slot = None;
+            }
+        }
+    }
+
     fn receive(&mut self, msg: FromShadow) {
         match msg {
             FromShadow::Judged(j) => {
@@ -412,6 +507,7 @@ fn shadow_loop(
     solver: &mut dyn LocalSolver,
     rx: Receiver<ToShadow>,
     tx: Sender<FromShadow>,
+    started: &AtomicU64,
 ) {
     // The charts of every commit replayed so far, in order.
     let mut commits: Vec<(ChartId, ChartId)> = Vec::new();
@@ -459,7 +555,9 @@ fn shadow_loop(
         }
         shadow.ops[o] = entry;
         let charts = shadow.op_charts(op);
+        started.store(started_key(op, version), Ordering::Release);
         let judged = shadow.judge(op, version, charts, commits.len(), solver);
+        started.store(NOT_STARTED, Ordering::Release);
         if tx.send(FromShadow::Judged(Box::new(judged))).is_err() {
             return;
         }

@@ -134,7 +134,7 @@ fn the_same_input_merges_to_the_same_bits() {
 }
 
 #[test]
-fn judging_ahead_on_a_second_engine_merges_to_the_serial_bits() {
+fn judging_ahead_on_more_engines_merges_to_the_serial_bits() {
     let model = synthetic(Shape::Blob, 10_000, 5);
     let mut reg = Registry::default();
     scanatlas_plugins::register_builtin(&mut reg);
@@ -142,8 +142,8 @@ fn judging_ahead_on_a_second_engine_merges_to_the_serial_bits() {
     let run = |solvers: usize| {
         let mut t = Topology::build(&model, &sheet_sizes(&model)).expect("valid model");
         let solvers = (0..solvers).map(|_| reg.solver("arap", &Params::new()).unwrap()).collect();
-        // The default: one queue for the whole model, with a shadow engine judging ahead when
-        // there are two solvers.
+        // The default: one queue for the whole model, with a shadow engine per solver beyond the
+        // first judging ahead.
         let opts = MergeOptions::default();
         assert!(opts.speculate && opts.cluster_faces == 0);
         let (report, _) =
@@ -151,18 +151,26 @@ fn judging_ahead_on_a_second_engine_merges_to_the_serial_bits() {
         (report, merged_model(&model, &t))
     };
     let (ra, a) = run(1);
-    let (rb, b) = run(2);
     assert!(ra.accepted > 100, "too little merged for a comparison: {}", ra.accepted);
+    assert_eq!(ra.timings.judged_ahead, 0);
     let counts = |r: &MergeReport| {
         (r.attempted, r.accepted, r.rejected.overlap, r.separations_done, r.solver_iterations)
     };
-    assert_eq!(counts(&ra), counts(&rb));
-    assert_eq!(ra.timings.judged_ahead, 0);
-    assert!(rb.timings.judged_ahead > 0, "nothing was judged ahead: {:?}", rb.timings);
     let bits = |m: &Model| m.uvs.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
-    assert!(bits(&a) == bits(&b), "UVs differ with a second engine");
     let ids = |m: &Model| m.faces.iter().map(|f| f.uv).collect::<Vec<_>>();
-    assert!(ids(&a) == ids(&b), "UV indices differ with a second engine");
+    for engines in [2, 4] {
+        let (rb, b) = run(engines);
+        assert_eq!(counts(&ra), counts(&rb), "{engines} engines");
+        assert!(rb.timings.judged_ahead > 0, "nothing was judged ahead: {:?}", rb.timings);
+        assert!(bits(&a) == bits(&b), "UVs differ with {engines} engines");
+        assert!(ids(&a) == ids(&b), "UV indices differ with {engines} engines");
+    }
+    // The queue's work and span: the span is a chain of some of the work, never all of it on a
+    // model of many independent charts, and never shorter than the longest settling.
+    let t = &ra.timings;
+    assert!(t.span_ms > 0.0 && t.settle_ms > 0.0, "{t:?}");
+    assert!(t.span_ms < t.work_ms, "span {} of work {}", t.span_ms, t.work_ms);
+    assert!(t.settle_ms < t.work_ms, "{t:?}");
 }
 
 const SHEET: u32 = 2048;
