@@ -109,12 +109,14 @@ impl Engine<'_> {
         scope: Option<&[bool]>,
     ) {
         let ts = Instant::now();
+        self.pairing.neighbours.begin(self.t.charts.len());
         for op in 0..self.ops.len() as u32 {
             let live = matches!(self.ops[op as usize].state, OpState::Queued | OpState::Vetoed(_));
             if live && self.in_scope(op, scope) {
                 self.rescore(op, scorer, queue, scope);
             }
         }
+        self.pairing.neighbours.end();
         self.report.timings.scoring_ms += ts.elapsed().as_secs_f64() * 1e3;
     }
 
@@ -132,11 +134,13 @@ impl Engine<'_> {
         }
         self.deferring = false;
         let ts = Instant::now();
+        self.pairing.neighbours.begin(self.t.charts.len());
         for op in 0..self.ops.len() as u32 {
             if self.ops[op as usize].state == OpState::Failed(RejectReason::Deferred) {
                 self.rescore(op, scorer, queue, scope);
             }
         }
+        self.pairing.neighbours.end();
         self.report.timings.scoring_ms += ts.elapsed().as_secs_f64() * 1e3;
         true
     }
@@ -320,6 +324,9 @@ impl Engine<'_> {
         // passed for every operation of a towards a chart with at most five neighbours, and the
         // boundary filter never vetoed those.
         self.chart_ops[a.idx()] = list;
+        // From here on operations only change between live states: the chart graph stands still
+        // until the next commit (see `NeighbourMemo`).
+        self.pairing.neighbours.begin(self.t.charts.len());
         for i in 0..self.chart_ops[a.idx()].len() {
             let op = self.chart_ops[a.idx()][i];
             match self.ops[op as usize].state {
@@ -362,5 +369,6 @@ impl Engine<'_> {
                 !matches!(self.ops[op as usize].state, OpState::Dead | OpState::Done)
             });
         }
+        self.pairing.neighbours.end();
     }
 }

@@ -102,8 +102,35 @@ impl Engine<'_> {
     }
 
     /// The distinct live neighbours of chart `c` through inter-chart operations, appended to `out`
-    /// in discovery order; stops and returns `false` once more than `limit` are found.
-    fn neighbours_within(&self, c: ChartId, limit: usize, out: &mut Vec<ChartId>) -> bool {
+    /// in discovery order; stops and returns `false` once more than `limit` are found. `limit`
+    /// must be below `MEMO_CAP`. During a rescoring the answer comes from the memo.
+    fn neighbours_within(&mut self, c: ChartId, limit: usize, out: &mut Vec<ChartId>) -> bool {
+        debug_assert!(limit < scratch::MEMO_CAP);
+        let memo = &self.pairing.neighbours;
+        if memo.current == 0 {
+            return self.scan_neighbours(c, limit, out);
+        }
+        if memo.epoch[c.idx()] != memo.current {
+            let mut found = Vec::with_capacity(scratch::MEMO_CAP + 1);
+            self.scan_neighbours(c, scratch::MEMO_CAP, &mut found);
+            let memo = &mut self.pairing.neighbours;
+            memo.epoch[c.idx()] = memo.current;
+            memo.count[c.idx()] = found.len() as u8;
+            for (slot, &n) in memo.first[c.idx()].iter_mut().zip(&found) {
+                *slot = n;
+            }
+        }
+        let memo = &self.pairing.neighbours;
+        let count = usize::from(memo.count[c.idx()]);
+        if count > limit {
+            return false;
+        }
+        out.extend_from_slice(&memo.first[c.idx()][..count]);
+        true
+    }
+
+    /// `neighbours_within` from the operation lists.
+    fn scan_neighbours(&self, c: ChartId, limit: usize, out: &mut Vec<ChartId>) -> bool {
         let start = out.len();
         for &op in &self.chart_ops[c.idx()] {
             let o = &self.ops[op as usize];
@@ -128,7 +155,7 @@ impl Engine<'_> {
     /// The small-island look-ahead of the reference (digest §4.4): true when a and b have at most
     /// five neighbours each and, for some neighbour c, the charts reachable from a without
     /// crossing c are at most five (a sits in a small island that only c encloses).
-    pub(crate) fn island_lookahead(&self, a: ChartId, b: ChartId) -> bool {
+    pub(crate) fn island_lookahead(&mut self, a: ChartId, b: ChartId) -> bool {
         const STEPS: usize = 5;
         let mut around = Vec::with_capacity(2 * STEPS + 2);
         if !self.neighbours_within(a, STEPS, &mut around) {
