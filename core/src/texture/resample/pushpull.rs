@@ -15,8 +15,9 @@
 //! every level, as in the reference's 8-bit images) plus a heap [`Coverage`] of one bit per
 //! texel. Levels `≥ 1` together cost about a third of the sheet's tile file on disk and in the
 //! page cache, and a few MiB of heap for the masks;
-//! a level is dropped (its file deleted) as soon as the level below has been pushed, and a level's
-//! pages leave the resident set once the next one has been pulled from it. Every level is built
+//! a level is dropped (its file deleted) as soon as the level below has been pushed. Pull and push
+//! run a band of tile rows at a time and drop the rows of both levels they are done with from the
+//! resident set, so a gigapixel sheet costs a band's pages, not the sheet's. Every level is built
 //! tile by tile in parallel; a tile reads only the level below or above, never its own level, so
 //! the result does not depend on the thread count.
 
@@ -108,7 +109,9 @@ pub fn push_pull(
 /// set (see [`TileStore::release_tile_rows`]): otherwise a pass over a gigapixel level leaves its
 /// whole tile file resident.
 fn pull(prev: &TileStore, prev_cov: &Coverage, next: &mut TileStore, next_cov: &mut Coverage) {
-    let band = super::band_rows(next.tiles_x() as usize * next.tile_bytes());
+    // A band reads two tile rows of `prev`, each twice as wide, per tile row of `next`: sized
+    // by what it reads, so that both levels' pages of one band stay near the band size.
+    let band = super::band_rows(4 * next.tiles_x() as usize * next.tile_bytes());
     let mut ty0 = 0;
     while ty0 < next.tiles_y() {
         let ty1 = ty0.saturating_add(band);
