@@ -5,7 +5,7 @@
 //! apart each time one is freed, so that the next stage's vectors of a few tens of megabytes are
 //! carved out of the heap too. The resident set then stays at the high-water mark of the earlier
 //! stages plus what the later ones add on top of the fragments. Trimming after a stage that
-//! frees hundreds of megabytes (the merge's shadow, the packing's tables) gives those pages back
+//! frees large tables (the merge's shadow engine, the packing's tables) gives those pages back
 //! before the next stage allocates, so the peak is the largest stage's, not their sum.
 
 /// Returns the free pages of every arena of the allocator to the system (glibc's

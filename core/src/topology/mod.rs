@@ -126,8 +126,7 @@ pub struct PreparationReport {
 ///
 /// The largest tables that nothing changes after preparation (`corner_pos`, `orig_uv`, the mesh
 /// edges and the half-edges' edge and 3-D twin) are shared slices: a copy of the topology (the
-/// merge's shadow engine, a cluster's fork) then costs only the tables a merge may change, about
-/// half of the whole on a scan.
+/// merge's shadow engine, a cluster's fork) then costs only the tables a merge may change.
 #[derive(Clone, Debug)]
 pub struct Topology {
     /// Welded position of each model vertex.
