@@ -10,6 +10,7 @@ pub mod atomic;
 pub mod cancel;
 pub mod defrag;
 pub mod geometry;
+pub mod heap;
 pub mod index;
 pub mod io;
 pub mod metrics;

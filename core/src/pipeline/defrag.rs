@@ -174,6 +174,9 @@ pub struct DefragReport {
     /// added); the budget `options.global_distortion` holds for it.
     pub distortion: f64,
     pub times: StageTimes,
+    /// The most disk the run's temporary tile files (decoded input sheets, output sheets,
+    /// push-pull pyramids) took at once in the work folder, in bytes.
+    pub work_dir_peak_bytes: u64,
     /// What the reader found that degrades the input or the written output (see `warnings`).
     pub warnings: Vec<crate::warnings::Warning>,
 }
@@ -328,6 +331,7 @@ pub fn defrag_with_progress(
     progress: &mut dyn FnMut(DefragStage),
 ) -> Result<DefragReport, PipelineError> {
     let t_all = Instant::now();
+    let work_meter = crate::texture::work_usage::WorkDirMeter::start();
     let mut plugins = Plugins::build(registry, cfg)?;
     let inputs = [input.to_path_buf()];
     let paths = RunPaths {
@@ -359,12 +363,15 @@ pub fn defrag_with_progress(
     let prepare_warnings = preparation_warnings(&topo);
     crate::warnings::check_strict(cfg.strict, &prepare_warnings)?;
     times.prepare_ms = ms(t);
+    crate::heap::trim();
     ctx.checkpoint()?;
 
     progress(DefragStage::Merge);
     let t = Instant::now();
     let (merge_opts, merge, layout) = merge_stage(&mut topo, &loaded, &mut plugins, cfg)?;
     times.merge_ms = ms(t);
+    // The shadow's copy of the topology and engine is gone: see `heap`.
+    crate::heap::trim();
     ctx.checkpoint()?;
 
     let emitted = if cfg.merge_only {
@@ -434,6 +441,7 @@ pub fn defrag_with_progress(
         output_stats: written.stats,
         distortion: written.distortion,
         times,
+        work_dir_peak_bytes: work_meter.peak_bytes(),
         warnings,
     })
 }
@@ -480,6 +488,7 @@ impl Run<'_> {
         let (packed, palette, untangle) =
             pack_stage(topo, charts, self.loaded, self.plugins, self.cfg, merged)?;
         times.pack_ms = ms(t);
+        crate::heap::trim();
         self.ctx.checkpoint()?;
 
         progress(DefragStage::Textures);

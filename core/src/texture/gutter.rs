@@ -226,14 +226,18 @@ pub fn dilate(
                 .flatten()
                 .collect()
         };
-        // The previous row has now been read as halo by this row: store it.
+        // The previous row has now been read as halo by this row: store it. No later row reads
+        // it, so its pages leave the resident set (see `TileStore::release_tile_rows`), or a
+        // pass over a gigapixel sheet would leave the whole of it resident.
         if ty > 0 {
             filled += apply(store, coverage, ty - 1, &pending, bpp);
+            store.release_tile_rows(ty - 1, ty);
         }
         pending = fills;
     }
     if store.tiles_y() > 0 {
         filled += apply(store, coverage, store.tiles_y() - 1, &pending, bpp);
+        store.release_tile_rows(store.tiles_y() - 1, store.tiles_y());
     }
     Ok(filled)
 }

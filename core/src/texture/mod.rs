@@ -12,6 +12,7 @@ pub mod gutter;
 pub mod raster;
 pub mod resample;
 pub mod store;
+pub mod work_usage;
 
 use std::path::PathBuf;
 

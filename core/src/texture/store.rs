@@ -96,6 +96,7 @@ impl TileStore {
         // SAFETY: the file has no name and this store owns its only descriptor; nobody else
         // truncates or writes it while it is mapped.
         let map = unsafe { MmapMut::map_mut(&file) }.map_err(file_err)?;
+        super::work_usage::add(map.len() as u64);
         let work_dir = work_dir.to_path_buf();
         Ok(Self { width, height, format, tiles_x, tiles_y, map, work_dir, _file: file })
     }
@@ -284,6 +285,13 @@ impl TileStore {
         self.map
             .flush_async()
             .map_err(|e| TextureError::File { path: self.work_dir.clone(), source: e })
+    }
+}
+
+impl Drop for TileStore {
+    fn drop(&mut self) {
+        // The file goes with the descriptor, right after this.
+        super::work_usage::remove(self.map.len() as u64);
     }
 }
 

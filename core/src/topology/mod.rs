@@ -27,6 +27,7 @@ mod weld;
 #[cfg(test)]
 mod tests;
 
+use std::sync::Arc;
 use std::time::Instant;
 
 pub use charts::Chart;
@@ -122,17 +123,21 @@ pub struct PreparationReport {
 /// Per-corner, per-half-edge and per-face tables are indexed by `3·f + k` and `f`. The "current"
 /// UV lives on UV vertices (`uv_pos`); the "original" texel-space UV of every corner
 /// (`orig_uv`) is the ARAP target and the resampling source and is never changed by merges.
+///
+/// The largest tables that nothing changes after preparation (`corner_pos`, `orig_uv`, the mesh
+/// edges and the half-edges' edge and 3-D twin) are shared slices: a copy of the topology (the
+/// merge's shadow engine, a cluster's fork) then costs only the tables a merge may change.
 #[derive(Clone, Debug)]
 pub struct Topology {
     /// Welded position of each model vertex.
     pub vertex_pos: Vec<PosId>,
     pub n_positions: usize,
     /// Welded position of each corner.
-    pub corner_pos: Vec<PosId>,
+    pub corner_pos: Arc<[PosId]>,
     /// UV vertex of each corner.
     pub corner_uv: Vec<UvVertId>,
     /// Original texel-space UV of each corner (after REPEAT rebasing).
-    pub orig_uv: Vec<[f64; 2]>,
+    pub orig_uv: Arc<[[f64; 2]]>,
     /// Current texel-space position of each UV vertex.
     pub uv_pos: Vec<[f64; 2]>,
     /// Welded position of each UV vertex.
@@ -145,12 +150,12 @@ pub struct Topology {
     pub face_flags: Vec<FrozenReasons>,
     /// Sheet of each face (`NONE` for none).
     pub face_sheet: Vec<u32>,
-    pub edges: Vec<MeshEdge>,
-    pub edge_sides: Vec<HalfEdgeId>,
+    pub edges: Arc<[MeshEdge]>,
+    pub edge_sides: Arc<[HalfEdgeId]>,
     /// Mesh edge of each half-edge.
-    pub he_edge: Vec<EdgeId>,
+    pub he_edge: Arc<[EdgeId]>,
     /// 3D twin of each half-edge (two-sided, non-degenerate edges only).
-    pub he_twin: Vec<HalfEdgeId>,
+    pub he_twin: Arc<[HalfEdgeId]>,
     /// UV twin of each half-edge (same chart, same two UV vertices); `NONE` on UV borders.
     pub he_uv_twin: Vec<HalfEdgeId>,
     /// Linked pair of each half-edge; `NONE` when the side is not on a seam.
@@ -259,19 +264,19 @@ impl Topology {
         let mut topo = Self {
             vertex_pos,
             n_positions,
-            corner_pos,
+            corner_pos: corner_pos.into(),
             corner_uv: uv.corner_uv,
-            orig_uv,
+            orig_uv: orig_uv.into(),
             uv_pos: uv.uv_pos,
             uv_vpos: uv.uv_vpos,
             uv_chart: uv.uv_chart,
             face_chart: labels.face_chart,
             face_flags,
             face_sheet,
-            edges: adj.edges,
-            edge_sides: adj.edge_sides,
-            he_edge: adj.he_edge,
-            he_twin: adj.he_twin,
+            edges: adj.edges.into(),
+            edge_sides: adj.edge_sides.into(),
+            he_edge: adj.he_edge.into(),
+            he_twin: adj.he_twin.into(),
             he_uv_twin,
             he_link: links.he_link,
             charts: chart_list,
@@ -310,7 +315,7 @@ impl Topology {
     /// charts, edges, seams, chains and operations.
     fn count_structures(&mut self) {
         let mut referenced = vec![false; self.n_positions];
-        for p in &self.corner_pos {
+        for p in self.corner_pos.iter() {
             referenced[p.idx()] = true;
         }
         let r = &mut self.report;

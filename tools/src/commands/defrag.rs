@@ -158,6 +158,12 @@ fn print_summary(report: &DefragReport, quiet: bool) {
             report.output_stats.atlas_solidity.unwrap_or(0.0)
         );
     }
+    if report.work_dir_peak_bytes > 0 {
+        eprintln!(
+            "  work folder: temporary tile files took at most {}",
+            scanatlas_core::output_set::human_bytes(report.work_dir_peak_bytes)
+        );
+    }
     if let Some(o) = report.pack_options.filter(|o| o.texel_scale != 1.0) {
         eprintln!(
             "  texel scale {}: every chart resampled, no texel copied verbatim",

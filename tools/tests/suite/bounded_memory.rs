@@ -1,6 +1,7 @@
 //! The bounded-memory invariant, end to end: `defrag` of a multi-sheet synthetic scan peaks at a
 //! resident size well below its decoded pixels, because sheets live in memory-mapped tile files
-//! and are read a band at a time, never whole.
+//! and are read a band at a time, never whole; and its report says how much disk those tile
+//! files took.
 
 use std::path::Path;
 use std::process::Command;
@@ -50,8 +51,15 @@ fn defrag_of_a_multi_sheet_scan_stays_well_below_its_decoded_pixels() {
     );
     let out: &Path = &dir.path().join("out").join("out.obj");
     let input = scan.join("scan.obj");
-    let peak =
-        peak_rss(scanatlas(&["-q", "--threads", "2", "defrag"]).arg(&input).arg("-o").arg(out));
+    let report = dir.path().join("report.json");
+    let peak = peak_rss(
+        scanatlas(&["-q", "--threads", "2", "defrag"])
+            .arg(&input)
+            .arg("-o")
+            .arg(out)
+            .arg("--report")
+            .arg(&report),
+    );
     assert!(out.is_file(), "no output model");
     let written = std::fs::read_dir(out.parent().unwrap()).unwrap().count();
     assert!(written >= 3, "expected a multi-sheet output, found {written} files");
@@ -63,6 +71,17 @@ fn defrag_of_a_multi_sheet_scan_stays_well_below_its_decoded_pixels() {
         "peak resident set {} MB, bound {} MB (decoded input {} MB)",
         peak >> 20,
         bound >> 20,
+        DECODED_BYTES >> 20
+    );
+    // The work folder held every input sheet's tile file at once (they are decoded ahead),
+    // and beside them at most output sheets of about the same texels and their pyramids.
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&report).unwrap()).expect("a JSON report");
+    let work = json["work_dir_peak_bytes"].as_u64().expect("work_dir_peak_bytes is a number");
+    assert!(
+        (DECODED_BYTES..4 * DECODED_BYTES).contains(&work),
+        "work folder peak {} MB, decoded input {} MB",
+        work >> 20,
         DECODED_BYTES >> 20
     );
 }

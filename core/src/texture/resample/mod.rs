@@ -369,6 +369,8 @@ pub fn resample_sheets(
             for input in inputs {
                 input.release_tile_rows(0, input.tiles_y());
             }
+            // The band's own pages too: dilation reads them back from the page cache.
+            store.release_tile_rows(ty0, ty1);
             ty0 = ty1;
         }
         let written = cov.count();
@@ -412,7 +414,7 @@ pub fn resample_sheets(
 const BAND_BYTES: usize = if cfg!(test) { 1 } else { 64 << 20 };
 
 /// How many tile rows of `row_bytes` each make one band (at least one).
-fn band_rows(row_bytes: usize) -> u32 {
+pub(super) fn band_rows(row_bytes: usize) -> u32 {
     (BAND_BYTES / row_bytes.max(1)).clamp(1, u32::MAX as usize) as u32
 }
 

@@ -15,8 +15,9 @@
 //! every level, as in the reference's 8-bit images) plus a heap [`Coverage`] of one bit per
 //! texel. Levels `≥ 1` together cost about a third of the sheet's tile file on disk and in the
 //! page cache, and a few MiB of heap for the masks;
-//! a level is dropped (its file deleted) as soon as the level below has been pushed, and a level's
-//! pages leave the resident set once the next one has been pulled from it. Every level is built
+//! a level is dropped (its file deleted) as soon as the level below has been pushed. Pull and push
+//! run a band of tile rows at a time and drop the rows of both levels they are done with from the
+//! resident set, so a gigapixel sheet costs a band's pages, not the sheet's. Every level is built
 //! tile by tile in parallel; a tile reads only the level below or above, never its own level, so
 //! the result does not depend on the thread count.
 
@@ -103,12 +104,39 @@ pub fn push_pull(
     Ok(stats)
 }
 
-/// Builds level `next` from `prev`: each texel is the mean of its written children.
+/// Builds level `next` from `prev`: each texel is the mean of its written children. A band of
+/// tile rows at a time, dropping the pages of `next` and `prev` it is done with from the resident
+/// set (see [`TileStore::release_tile_rows`]): otherwise a pass over a gigapixel level leaves its
+/// whole tile file resident.
 fn pull(prev: &TileStore, prev_cov: &Coverage, next: &mut TileStore, next_cov: &mut Coverage) {
+    // A band reads two tile rows of `prev`, each twice as wide, per tile row of `next`: sized
+    // by what it reads, so that both levels' pages of one band stay near the band size.
+    let band = super::band_rows(4 * next.tiles_x() as usize * next.tile_bytes());
+    let mut ty0 = 0;
+    while ty0 < next.tiles_y() {
+        let ty1 = ty0.saturating_add(band);
+        pull_rows(prev, prev_cov, next, next_cov, ty0, ty1);
+        next.release_tile_rows(ty0, ty1);
+        // Tile row `ty` of `next` reads tile rows `2·ty` and `2·ty + 1` of `prev` only.
+        prev.release_tile_rows(2 * ty0, 2 * ty1);
+        ty0 = ty1;
+    }
+}
+
+/// Pulls tile rows `ty0..ty1` of `next` (see [`pull`]).
+fn pull_rows(
+    prev: &TileStore,
+    prev_cov: &Coverage,
+    next: &mut TileStore,
+    next_cov: &mut Coverage,
+    ty0: u32,
+    ty1: u32,
+) {
     let (nw, nh) = (next.width(), next.height());
     let format = next.format();
     let (ch, sample, bpp) = (format.channels as usize, format.sample, format.bytes_per_pixel());
-    next.par_tiles_mut().zip(next_cov.par_tiles_mut()).for_each(|((tx, ty, px), (_, _, bits))| {
+    let tiles = next.par_tile_rows_mut(ty0, ty1).zip(next_cov.par_tile_rows_mut(ty0, ty1));
+    tiles.for_each(|((tx, ty, px), (_, _, bits))| {
         let rect = rect_of(tx, ty, nw, nh);
         let mut acc = [0.0f64; 4];
         for y in rect.y0..rect.y1 {
@@ -144,15 +172,39 @@ fn pull(prev: &TileStore, prev_cov: &Coverage, next: &mut TileStore, next_cov: &
 }
 
 /// Fills the unwritten texels of `child` from the complete level `parent` above it, sets their
-/// bits, and returns how many there were.
+/// bits, and returns how many there were. A band of tile rows at a time, releasing the pages it
+/// is done with, as [`pull`] does.
 fn push(child: &mut TileStore, child_cov: &mut Coverage, parent: &TileStore) -> u64 {
+    let band = super::band_rows(child.tiles_x() as usize * child.tile_bytes());
+    let mut filled = 0;
+    let mut ty0 = 0;
+    while ty0 < child.tiles_y() {
+        let ty1 = ty0.saturating_add(band);
+        filled += push_rows(child, child_cov, parent, ty0, ty1);
+        child.release_tile_rows(ty0, ty1);
+        // Tile row `ty` of `child` reads `parent` from a texel above its top row on: the rows
+        // of `parent` above `ty1 / 2 - 1` are done with.
+        parent.release_tile_rows((ty0 / 2).saturating_sub(1), (ty1 / 2).saturating_sub(1));
+        ty0 = ty1;
+    }
+    filled
+}
+
+/// Pushes into tile rows `ty0..ty1` of `child` (see [`push`]).
+fn push_rows(
+    child: &mut TileStore,
+    child_cov: &mut Coverage,
+    parent: &TileStore,
+    ty0: u32,
+    ty1: u32,
+) -> u64 {
     let (cw, chh) = (child.width(), child.height());
     let (pw, ph) = (parent.width(), parent.height());
     let format = child.format();
     let (ch, sample, bpp) = (format.channels as usize, format.sample, format.bytes_per_pixel());
     child
-        .par_tiles_mut()
-        .zip(child_cov.par_tiles_mut())
+        .par_tile_rows_mut(ty0, ty1)
+        .zip(child_cov.par_tile_rows_mut(ty0, ty1))
         .map(|((tx, ty, px), (_, _, bits))| {
             let rect = rect_of(tx, ty, cw, chh);
             // A complete tile needs no work (padding bits are never set).
