@@ -69,8 +69,10 @@ pub(crate) struct SolveMemos {
 const SWEEP_FLOOR: usize = 256;
 
 /// The most bytes `by_op` holds: the solves of a failed attempt that would take it beyond are
-/// not kept (after a sweep), so the memo's memory stays bounded on any input.
-pub(super) const KEPT_BYTES: usize = 32 << 20;
+/// not kept, so the memo's memory stays bounded on any input. Sweeping at every such refusal
+/// would cost a pass over the whole memo per failed attempt once it is full, so only the
+/// sweeps by count (see [`SolveMemos::end`]) make room.
+pub(super) const KEPT_BYTES: usize = 64 << 20;
 
 impl SolveMemos {
     /// Starts an attempt of operation `op`: the solves of its previous failed attempt, if any,
@@ -113,9 +115,6 @@ impl SolveMemos {
     /// are dropped, so that the memo does not grow with every operation that ever failed.
     pub(super) fn end(&mut self, op: u32, failed: bool, live: impl Fn(u32) -> bool) {
         let bytes: usize = self.current.iter().map(SolveMemo::bytes).sum();
-        if failed && self.kept_bytes + bytes > KEPT_BYTES {
-            self.sweep(&live);
-        }
         if failed && !self.current.is_empty() && self.kept_bytes + bytes <= KEPT_BYTES {
             self.kept_bytes += bytes;
             self.by_op.insert(op, std::mem::take(&mut self.current));
