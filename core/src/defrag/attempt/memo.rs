@@ -48,8 +48,11 @@ impl SolveMemo {
 /// its failed attempt again, bit for bit: its first solve, and often those after freezing the
 /// offenders of an overlap or growing the area as well. Every problem of an attempt is compared
 /// bit for bit, so a taken answer is the one a solve would give, whichever engine holds the memo
-/// and whatever the thread count. Only the attempts on both sides are kept: an operation is held
-/// one-sided on its first attempt only, so a one-sided problem never comes back.
+/// and whatever the thread count. The hits are not counted in the report: which engine holds which
+/// memo depends on the timing of the judgements ahead, and the report is the same for every thread
+/// count (a taken answer reports the iterations of its solve). Only the attempts on both sides are
+/// kept: an operation is held one-sided on its first attempt only, so a one-sided problem never
+/// comes back.
 #[derive(Default)]
 pub(crate) struct SolveMemos {
     /// The solves of each operation's last failed attempt, by operation.
