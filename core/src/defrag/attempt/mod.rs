@@ -3,6 +3,7 @@
 //! problem, have `verdict.rs` check energies, folds and overlaps (with a bounded
 //! freeze-and-rerun on new overlaps), and commit, or roll back from the undo logs.
 
+mod memo;
 pub(super) mod scratch;
 
 use std::time::Instant;
@@ -76,6 +77,7 @@ impl Engine<'_> {
         let one_sided =
             self.opts.one_sided && self.ops[op as usize].failures == 0 && self.op_is_inter(op);
         let mut sides = if one_sided { &[true, false][..] } else { &[false][..] };
+        self.trial.memo.begin(op);
         let (g, result) = loop {
             let t0 = Instant::now();
             let g = self.op_geometry(op);
@@ -89,11 +91,7 @@ impl Engine<'_> {
                 self.report.max_patch_faces.max(self.area.opt_faces.len() as u64);
             self.report.timings.area_ms += ms(t1);
 
-            let result = self.check_and_solve(op, &g, solver);
-            if std::mem::take(&mut self.trial.memo_filled) && result == Err(RejectReason::Deferred)
-            {
-                self.trial.solve_memo.insert(op, std::mem::take(&mut self.trial.memo_scratch));
-            }
+            let result = self.check_and_solve(&g, solver);
             if result.is_ok() || sides.len() == 1 {
                 if result.is_ok() && self.trial.hold.is_some() {
                     self.report.one_sided_merges += 1;
@@ -126,6 +124,8 @@ impl Engine<'_> {
                 self.report.timings.rollback_ms += ms(t);
             }
         }
+        let ops = &self.ops;
+        self.trial.memo.end(op, result.is_err(), |o| ops[o as usize].is_live());
         self.reset_scratch();
         (result.map(|_| g), record)
     }
@@ -262,7 +262,6 @@ impl Engine<'_> {
     /// the solve with its freeze-and-rerun loop, and the checks.
     fn check_and_solve(
         &mut self,
-        op: u32,
         g: &OpGeometry,
         solver: &mut dyn LocalSolver,
     ) -> Result<(f64, f64, f64), RejectReason> {
@@ -294,17 +293,12 @@ impl Engine<'_> {
         self.trial.start_uv.extend_from_slice(&self.area.problem.uv);
         let mut rerun = 0;
         let mut grown = 0;
-        let mut first = true;
         // The refusal that sent the attempt to the solver's rescue, once it went there.
         let mut rescued: Option<RejectReason> = None;
         loop {
             let t = Instant::now();
             let solved = match rescued {
-                None if first => {
-                    first = false;
-                    self.first_solve(op, solver)
-                }
-                None => solver.solve(&mut self.area.problem),
+                None => self.primary_solve(solver),
                 // A rescue that cannot run or fails leaves the first refusal standing.
                 Some(refusal) => {
                     let again = solver.solve_again(&mut self.area.problem);
@@ -385,39 +379,14 @@ impl Engine<'_> {
         }
     }
 
-    /// The first solve of an attempt. A deferred operation's attempt in the second pass often
-    /// builds the very problem its first-pass attempt solved (neither chart changed since): the
-    /// solver is deterministic, so its answer is taken from the memo instead of solved again
-    /// (deferred operations are mostly large patches, whose second solve was costly). The whole starting problem is compared bit for bit, so the result is the
-    /// one a solve would give, whichever engine holds the memo. In the first pass, the solve of
-    /// every attempt on both sides is kept until the outcome says whether it was deferred.
-    fn first_solve(
-        &mut self,
-        op: u32,
-        solver: &mut dyn LocalSolver,
-    ) -> Result<SolveReport, SolveError> {
+    /// A solve with the primary solver (every solve of the attempt but the rescue). On both
+    /// sides it goes through the memo of the operation's failed attempts (see `SolveMemos`); a
+    /// one-sided problem never comes back, so it is solved directly.
+    fn primary_solve(&mut self, solver: &mut dyn LocalSolver) -> Result<SolveReport, SolveError> {
         if self.trial.hold.is_some() {
             return solver.solve(&mut self.area.problem);
         }
-        if let Some(m) = self.trial.solve_memo.remove(&op)
-            && m.start_matches(&self.area.problem)
-        {
-            self.area.problem.uv.clone_from(&m.solved);
-            // Not counted in the report: which engine holds the memo depends on the timing of
-            // the judgements ahead, and the report is the same for every thread count.
-            return Ok(m.report);
-        }
-        // The scratch keeps its buffers from one attempt to the next; only a deferral takes them.
-        if self.deferring {
-            self.trial.memo_scratch.start.clone_from(&self.area.problem);
-        }
-        let solved = solver.solve(&mut self.area.problem);
-        if let (true, Ok(report)) = (self.deferring, &solved) {
-            self.trial.memo_scratch.solved.clone_from(&self.area.problem.uv);
-            self.trial.memo_scratch.report = *report;
-            self.trial.memo_filled = true;
-        }
-        solved
+        self.trial.memo.solve(&mut self.area.problem, solver)
     }
 
     /// Whether the refused attempt in progress is one for the solver's rescue (its seams are at
