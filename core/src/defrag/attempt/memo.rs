@@ -75,7 +75,7 @@ const SWEEP_FLOOR: usize = 256;
 /// not kept, so the memo's memory stays bounded on any input. Sweeping at every such refusal
 /// would cost a pass over the whole memo per failed attempt once it is full, so only the
 /// sweeps by count (see [`SolveMemos::end`]) make room.
-pub(super) const KEPT_BYTES: usize = 64 << 20;
+pub(super) const KEPT_BYTES: usize = 32 << 20;
 
 impl SolveMemos {
     /// Starts an attempt of operation `op`: the solves of its previous failed attempt, if any,
