@@ -323,10 +323,10 @@ pub fn pack_layout(
     if packing.texels > input_texels && super::reshape::may_reshape(opts) {
         let t = Instant::now();
         let shapes = super::reshape::reshaped_limits(max_sheet, opts, &items);
-        (packing, report.sheet_shapes_tried) = super::reshape::fewest_texels(
+        report.sheet_shapes_tried = shapes.len();
+        packing = super::reshape::fewest_texels(
             packing,
             &shapes,
-            input_texels,
             |s| pack_on(cx, &framed, &items, packer, s, opts),
             |p| p.texels,
             |p| p.sizes.len(),

@@ -59,40 +59,27 @@ pub(super) fn reshaped_limits(
     out
 }
 
-/// Shapes packed side by side at a time: after each such batch the search stops if the best
-/// packing so far is within the input's texels. A fixed number, so the shapes tried do not depend
-/// on the thread count.
-const BATCH: usize = 2;
-
-/// The best of `first` (packed at the default limit) and the packings `pack` gives on `shapes`,
-/// [`BATCH`] of them at a time in parallel, until one needs at most `enough` texels: the fewest
-/// texels, then the fewest sheets, then the first in order (`first` before the others), so the
-/// choice does not depend on the thread count. `texels` and `sheets` read those figures of a
-/// packing. Returns the best packing and the number of shapes packed.
+/// The best of `first` (packed at the default limit) and the packings `pack` gives on each of
+/// `shapes`, run in parallel: the fewest texels, then the fewest sheets, then the first in order
+/// (`first` before the others), so the choice does not depend on the thread count. `texels` and
+/// `sheets` read those figures of a packing. Every shape is tried, not only until one fits the
+/// input's texels: a later shape often holds the same charts on fewer sheets.
 pub(super) fn fewest_texels<T: Send, E: Send>(
     first: T,
     shapes: &[(u32, u32)],
-    enough: u64,
     pack: impl Fn((u32, u32)) -> Result<T, E> + Sync,
     texels: impl Fn(&T) -> u64,
     sheets: impl Fn(&T) -> usize,
-) -> Result<(T, usize), E> {
+) -> Result<T, E> {
+    let tried: Vec<T> = shapes.par_iter().map(|&s| pack(s)).collect::<Result<_, E>>()?;
     let key = |t: &T| (texels(t), sheets(t));
     let mut best = first;
-    let mut tried = 0;
-    for batch in shapes.chunks(BATCH) {
-        if texels(&best) <= enough {
-            break;
-        }
-        let packed: Vec<T> = batch.par_iter().map(|&s| pack(s)).collect::<Result<_, E>>()?;
-        tried += batch.len();
-        for t in packed {
-            if key(&t) < key(&best) {
-                best = t;
-            }
+    for t in tried {
+        if key(&t) < key(&best) {
+            best = t;
         }
     }
-    Ok((best, tried))
+    Ok(best)
 }
 
 #[cfg(test)]
@@ -125,21 +112,18 @@ mod tests {
 
     #[test]
     fn the_fewest_texels_win_then_the_fewest_sheets_then_the_first() {
-        let pick = |first: (u64, usize), enough: u64| {
+        let pick = |first: (u64, usize)| {
             fewest_texels::<_, ()>(
                 first,
-                &[(3, 1), (2, 1), (2, 2), (1, 5)],
-                enough,
+                &[(3, 1), (2, 2), (2, 1), (2, 1), (5, 5)],
                 |(w, h)| Ok((u64::from(w), h as usize)),
                 |t| t.0,
                 |t| t.1,
             )
             .unwrap()
         };
-        assert_eq!(pick((4, 2), 0), ((1, 5), 4));
-        // The search stops after the batch that brought the texels within `enough`.
-        assert_eq!(pick((4, 2), 2), ((2, 1), 2));
-        assert_eq!(pick((2, 1), 2), ((2, 1), 0));
-        assert_eq!(pick((3, 9), 0), ((1, 5), 4));
+        assert_eq!(pick((4, 2)), (2, 1));
+        assert_eq!(pick((2, 1)), (2, 1));
+        assert_eq!(pick((1, 9)), (1, 9));
     }
 }
