@@ -153,6 +153,9 @@ impl ChartAdjacency {
     }
 }
 
+/// A rigid group beyond its chart's anchor: `(chart, chart's 3-D area, faces sorted)`.
+type Group = (u32, f64, Vec<u32>);
+
 /// The new charts, in group order: each edge-connected part of a group that holds at least
 /// `min_fraction` of its chart's 3-D area and that `take(part's 3-D area, UV length of the seam it opens)`
 /// accepts, with the pieces of the rest that only it held to the chart's heaviest piece; each with
@@ -176,7 +179,7 @@ fn parts_to_split(
         }
     }
     // The groups come chart by chart: one run per chart, with that chart's faces.
-    let mut runs: Vec<(&[(u32, f64, Vec<u32>)], Vec<u32>)> = Vec::new();
+    let mut runs: Vec<(&[Group], Vec<u32>)> = Vec::new();
     for run in groups.chunk_by(|a, b| a.0 == b.0) {
         let faces = chart_faces.get_mut(run[0].0 as usize).map(std::mem::take).unwrap_or_default();
         runs.push((run, faces));
