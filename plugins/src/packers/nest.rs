@@ -196,6 +196,9 @@ pub(super) fn nest(
     Some(sheets.len())
 }
 
+/// A nested packing: its score (sheets, trimmed area), placements and sheets.
+type Nested = ((usize, u64), Vec<Placement>, usize);
+
 /// The best nested packing `(placements, sheets)` of the items over `orders` (run in parallel;
 /// the fewest sheets, then the least trimmed area, then the first order wins), with `blank`
 /// placements for the items no order lists. `None` when no order nests every item.
@@ -218,7 +221,7 @@ pub(super) fn best_nest(
         .map(|(it, &l)| if l { shapes(it, f) } else { Vec::new() })
         .collect();
     let blank = Placement { sheet: 0, quarter_turns: 0, x: 0, y: 0 };
-    let tried: Vec<Option<((usize, u64), Vec<Placement>, usize)>> = orders
+    let tried: Vec<Option<Nested>> = orders
         .par_iter()
         .map(|o| {
             let mut cand = vec![blank; items.len()];
@@ -227,7 +230,7 @@ pub(super) fn best_nest(
             Some(((sheets, area), cand, sheets))
         })
         .collect();
-    let mut best: Option<((usize, u64), Vec<Placement>, usize)> = None;
+    let mut best: Option<Nested> = None;
     for t in tried.into_iter().flatten() {
         if best.as_ref().is_none_or(|b| t.0 < b.0) {
             best = Some(t);
