@@ -52,6 +52,9 @@ pub enum WarningCode {
     /// A material map that `defrag` could not carry over to the new atlas (other texture
     /// coordinates, an extension's texture, an unreadable image): left as it was or neutral.
     MapNotRebaked,
+    /// The output sheets hold more texels than the input's, at a texel scale of at most 1: the
+    /// packer found no packing of the charts within the input's texel count.
+    AtlasGrew,
 }
 
 impl WarningCode {
@@ -76,6 +79,7 @@ impl WarningCode {
             Self::FacesDetached => "faces-detached",
             Self::TexelClashesLeft => "texel-clashes-left",
             Self::MapNotRebaked => "map-not-rebaked",
+            Self::AtlasGrew => "atlas-grew",
         }
     }
 }

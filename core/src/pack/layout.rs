@@ -12,7 +12,7 @@ use super::frame::{ANCHOR_TRIES, Frame, FreeTurn, chart_frame, claim_group, refi
 use super::place::{Placed, place_and_trim};
 use super::texel_clash::{ChartClashes, separate};
 use super::{LayoutInput, PackError, PackOptions, PackReport, PackedLayout};
-use crate::plugin::{ALL_ROTATIONS, PackItem, Packer, PackerError, check_packing};
+use crate::plugin::{ALL_ROTATIONS, PackItem, PackOutput, Packer, PackerError, check_packing};
 
 /// Compressed lists: the members of group `g` are `items[start[g]..start[g + 1]]`.
 pub(super) struct Csr {
@@ -316,20 +316,32 @@ pub fn pack_layout(
     report.footprints_ms = ms(t);
 
     let t = Instant::now();
-    let out = packer.pack(&items, max_sheet)?;
-    check_packing(&items, max_sheet, &out)?;
+    let input_texels: u64 =
+        input.input_sheet_sizes.iter().map(|&(w, h)| u64::from(w) * u64::from(h)).sum();
+    let mut packing = pack_on(cx, &framed, &items, packer, max_sheet, opts)?;
+    report.packing_ms = ms(t);
+    if packing.texels > input_texels && super::reshape::may_reshape(opts) {
+        let t = Instant::now();
+        let shapes = super::reshape::reshaped_limits(max_sheet, opts, &items);
+        report.sheet_shapes_tried = shapes.len();
+        packing = super::reshape::fewest_texels(
+            packing,
+            &shapes,
+            |s| pack_on(cx, &framed, &items, packer, s, opts),
+            |p| p.texels,
+            |p| p.sizes.len(),
+        )?;
+        report.reshape_ms = ms(t);
+    }
+    let Packing { out, placed, sizes: sheet_sizes, limit, off_size, .. } = packing;
+    report.max_sheet_size = limit;
+    report.input_texels = input_texels;
+    report.texel_scale = opts.texel_scale;
+    report.sheets_off_size = off_size;
     report.oversized_charts =
         out.oversized.iter().filter_map(|&i| framed.packed.get(i as usize).copied()).collect();
-    report.packing_ms = ms(t);
 
     let t = Instant::now();
-    let placed = place_and_trim(cx, &framed, &out)?;
-    let mut sheet_sizes = Vec::with_capacity(placed.sizes.len());
-    for &trimmed in &placed.sizes {
-        let (size, off) = super::sheet_size::output_sheet_size(trimmed, opts);
-        report.sheets_off_size += usize::from(off);
-        sheet_sizes.push(size);
-    }
     let face_sheet = finish_report(cx, &framed, &placed, &sheet_sizes, &mut report);
     report.finish_ms = ms(t);
     Ok(PackedLayout {
@@ -341,6 +353,42 @@ pub fn pack_layout(
         clashing_pairs,
         report,
     })
+}
+
+/// One packing of the charts' footprints on sheets of at most `limit`, placed and trimmed: the
+/// packer's answer, the placement, the output sheet sizes, how many of them are off a fixed size,
+/// and their texels.
+struct Packing {
+    out: PackOutput,
+    placed: Placed,
+    sizes: Vec<(u32, u32)>,
+    limit: (u32, u32),
+    off_size: usize,
+    texels: u64,
+}
+
+/// Packs `items` (the footprints of the charts `st.packed`) on sheets of at most `limit`, then
+/// places and trims them and gives the sheets the sizes the options ask for.
+fn pack_on(
+    cx: Charts,
+    st: &Framed,
+    items: &[PackItem],
+    packer: &dyn Packer,
+    limit: (u32, u32),
+    opts: &PackOptions,
+) -> Result<Packing, PackError> {
+    let out = packer.pack(items, limit)?;
+    check_packing(items, limit, &out)?;
+    let placed = place_and_trim(cx, st, &out)?;
+    let mut sizes = Vec::with_capacity(placed.sizes.len());
+    let mut off_size = 0;
+    for &trimmed in &placed.sizes {
+        let (size, off) = super::sheet_size::output_sheet_size(trimmed, opts);
+        off_size += usize::from(off);
+        sizes.push(size);
+    }
+    let texels = sizes.iter().map(|&(w, h)| u64::from(w) * u64::from(h)).sum();
+    Ok(Packing { out, placed, sizes, limit, off_size, texels })
 }
 
 /// (a) The frame of every chart with faces, anchored where one of its rigid groups fits a sheet.

@@ -15,6 +15,7 @@ mod frame;
 mod layout;
 pub mod palette;
 mod place;
+mod reshape;
 mod sheet_size;
 mod texel_clash;
 
@@ -151,6 +152,14 @@ pub struct PackReport {
     pub occupancy: f64,
     /// The size limit used.
     pub max_sheet_size: (u32, u32),
+    /// Texels of all input sheets, and how many other sheet shapes of the default limit's area
+    /// were tried because the packing at that limit needed more (see `reshape`; the limit kept
+    /// is `max_sheet_size`).
+    pub input_texels: u64,
+    pub sheet_shapes_tried: usize,
+    /// The texel scale of the run (see `PackOptions::texel_scale`): above 1 the atlas grows by
+    /// design.
+    pub texel_scale: f64,
     /// Sheets of a fixed-size run (`sheet_size`) that could not keep that size, because a chart
     /// is larger than the fixed sheet; each is rounded up to the allowed sides instead.
     pub sheets_off_size: usize,
@@ -160,6 +169,15 @@ pub struct PackReport {
     pub footprints_ms: f64,
     pub packing_ms: f64,
     pub finish_ms: f64,
+    pub reshape_ms: f64,
+    /// Wall-clock milliseconds of the steps of the pipeline's pack stage around the packings:
+    /// taking the palette's faces out, the rigid split, the untangle (its anchors and its
+    /// repair), cutting out the faces of texel clashes, and placing the palette.
+    pub palette_faces_ms: f64,
+    pub split_rigid_ms: f64,
+    pub untangle_ms: f64,
+    pub detach_ms: f64,
+    pub palette_ms: f64,
 }
 
 /// What the split of rigid groups before packing did (all zero when it is off).

@@ -19,6 +19,8 @@
 //! part by an edge but lies far away, joined to the rest by a corner only) is refused: such a
 //! chart would pack as mostly empty space.
 
+use rayon::prelude::*;
+
 use super::PipelineError;
 use super::charts::layout_input;
 use crate::index::NONE;
@@ -51,15 +53,14 @@ pub(super) fn split_rigid_groups(
     }
     let min = opts.anchor_min_fraction;
     let parts = parts_to_split(topo, face_chart, face_area_3d, &groups, min, |area, cut| {
-        let (gain, cost) = (area / total_area, 2.0 * cut / border_len);
-        let take = gain >= opts.split_rigid_ratio * cost;
-        if take {
-            report.area_fraction += gain;
-            report.border_fraction += cost;
-        }
-        take
+        area / total_area >= opts.split_rigid_ratio * (2.0 * cut / border_len)
     });
-    for part in &parts {
+    // Summed in part order, whatever the thread count.
+    for (_, area, cut) in &parts {
+        report.area_fraction += area / total_area;
+        report.border_fraction += 2.0 * cut / border_len;
+    }
+    for (part, ..) in &parts {
         topo.detach_faces(part);
         for &f in part {
             face_chart[f as usize] = *n as u32;
@@ -152,17 +153,22 @@ impl ChartAdjacency {
     }
 }
 
+/// A rigid group beyond its chart's anchor: `(chart, chart's 3-D area, faces sorted)`.
+type Group = (u32, f64, Vec<u32>);
+
 /// The new charts, in group order: each edge-connected part of a group that holds at least
 /// `min_fraction` of its chart's 3-D area and that `take(part's 3-D area, UV length of the seam it opens)`
-/// accepts, with the pieces of the rest that only it held to the chart's heaviest piece.
+/// accepts, with the pieces of the rest that only it held to the chart's heaviest piece; each with
+/// the part's 3-D area and the seam's length. The charts are independent, so they are handled in
+/// parallel; the groups of one chart in turn.
 fn parts_to_split(
     topo: &Topology,
     face_chart: &[u32],
     face_area_3d: &[f64],
     groups: &[(u32, f64, Vec<u32>)],
     min_fraction: f64,
-    mut take: impl FnMut(f64, f64) -> bool,
-) -> Vec<Vec<u32>> {
+    take: impl Fn(f64, f64) -> bool + Sync,
+) -> Vec<(Vec<u32>, f64, f64)> {
     let mut chart_faces: Vec<Vec<u32>> = Vec::new();
     for (f, &c) in face_chart.iter().enumerate() {
         if c != NONE {
@@ -172,19 +178,34 @@ fn parts_to_split(
             chart_faces[c as usize].push(f as u32);
         }
     }
+    // The groups come chart by chart: one run per chart, with that chart's faces.
+    let mut runs: Vec<(&[Group], Vec<u32>)> = Vec::new();
+    for run in groups.chunk_by(|a, b| a.0 == b.0) {
+        let faces = chart_faces.get_mut(run[0].0 as usize).map(std::mem::take).unwrap_or_default();
+        runs.push((run, faces));
+    }
+    let per_chart: Vec<Vec<(Vec<u32>, f64, f64)>> = runs
+        .into_par_iter()
+        .map(|(run, faces)| chart_parts(topo, face_area_3d, run, faces, min_fraction, &take))
+        .collect();
+    per_chart.into_iter().flatten().collect()
+}
+
+/// [`parts_to_split`] for the groups of one chart, whose faces are `faces`.
+fn chart_parts(
+    topo: &Topology,
+    face_area_3d: &[f64],
+    groups: &[(u32, f64, Vec<u32>)],
+    faces: Vec<u32>,
+    min_fraction: f64,
+    take: &(impl Fn(f64, f64) -> bool + Sync),
+) -> Vec<(Vec<u32>, f64, f64)> {
     let area = |f: u32| face_area_3d[f as usize].max(0.0);
     let mut parts = Vec::new();
-    // The adjacency of the chart of the groups at hand (groups come chart by chart), and which
-    // of its faces went to new charts already.
-    let mut current: Option<(u32, ChartAdjacency, Vec<bool>)> = None;
-    for (chart, chart_area, group) in groups {
-        if current.as_ref().is_none_or(|c| c.0 != *chart) {
-            let faces = std::mem::take(&mut chart_faces[*chart as usize]);
-            let adj = ChartAdjacency::new(topo, faces);
-            let taken = vec![false; adj.faces.len()];
-            current = Some((*chart, adj, taken));
-        }
-        let Some((_, adj, taken)) = current.as_mut() else { continue };
+    let adj = ChartAdjacency::new(topo, faces);
+    // Which of the chart's faces went to new charts already.
+    let mut taken = vec![false; adj.faces.len()];
+    for (_, chart_area, group) in groups {
         let weight = |p: &[usize]| p.iter().map(|&i| area(adj.faces[i])).sum::<f64>();
         let in_group = |i: usize| group.binary_search(&adj.faces[i]).is_ok();
         for part in adj.pieces(|i| !taken[i] && in_group(i)) {
@@ -207,7 +228,7 @@ fn parts_to_split(
                     piece.iter().for_each(|&i| leaving[i] = true);
                 }
             }
-            if grows_far(topo, adj, &part, &leaving) {
+            if grows_far(topo, &adj, &part, &leaving) {
                 continue;
             }
             let cut: f64 = rest[keep]
@@ -227,7 +248,7 @@ fn parts_to_split(
                 }
             }
             new_chart.sort_unstable();
-            parts.push(new_chart);
+            parts.push((new_chart, part_area, cut));
         }
     }
     parts

@@ -18,7 +18,7 @@ use scanatlas_core::plugin::{
 
 use rayon::prelude::*;
 
-use super::{SplitMix64, used_area};
+use super::{SplitMix64, nest, used_area};
 
 /// The registered name of this packer.
 pub const NAME: &str = "horizon";
@@ -41,11 +41,22 @@ pub struct HorizonPacker {
     pub square: bool,
     /// Also run the passes of the [`Fit::Area`] rules and keep the densest packing of all.
     pub area_fits: bool,
+    /// With fewer items than `shuffle_below`, when the best packing takes more sheets than the
+    /// items' cells fill, also nest the items on their exact shapes (see `nest`) and keep that
+    /// packing when it is smaller.
+    pub nest: bool,
 }
 
 impl Default for HorizonPacker {
     fn default() -> Self {
-        Self { seed: 0, shuffle_below: 100, max_shuffles: 100, square: true, area_fits: true }
+        Self {
+            seed: 0,
+            shuffle_below: 100,
+            max_shuffles: 100,
+            square: true,
+            area_fits: true,
+            nest: true,
+        }
     }
 }
 
@@ -514,6 +525,7 @@ impl HorizonPacker {
             max_shuffles: get_u64(params, &info, "max-shuffles", 0..=100_000)? as usize,
             square: get_bool(params, &info, "square")?,
             area_fits: get_bool(params, &info, "area-fits")?,
+            nest: get_bool(params, &info, "nest")?,
         })
     }
 
@@ -642,7 +654,9 @@ impl Packer for HorizonPacker {
             .into_iter()
             .reduce(|a, b| if score(&b.1, b.2) < score(&a.1, a.2) { b } else { a })
             .ok_or_else(|| PackerError::Failed("no packing pass ran".into()))?;
-        if order.len() > 1 && order.len() < self.shuffle_below {
+        let few = order.len() > 1 && order.len() < self.shuffle_below;
+        let mut orders: Vec<Vec<u32>> = Vec::new();
+        if few {
             let largest = areas[order[0] as usize];
             let big = order.iter().filter(|&&i| 2 * areas[i as usize] >= largest).count();
             let k = order.len().min(5).max(big);
@@ -652,7 +666,7 @@ impl Packer for HorizonPacker {
             // parallel and the first of the densest wins, a pure function of the input.
             let mut rng = SplitMix64::new(self.seed);
             let mut trial = order.clone();
-            let orders: Vec<Vec<u32>> = (0..tries)
+            orders = (0..tries)
                 .map(|_| {
                     rng.shuffle(&mut trial[..k]);
                     trial.clone()
@@ -675,6 +689,20 @@ impl Packer for HorizonPacker {
                     best = cand;
                     best_sheets = sheets;
                 }
+            }
+        }
+        // More sheets than the cells fill: the horizons may have wasted the hollows of large
+        // charts, which nesting on exact shapes can use (the largest-first order, then the
+        // shuffles).
+        let cells: u64 = order.iter().map(|&i| areas[i as usize]).sum();
+        let sheet_cells = u64::from(max_sheet.0) * u64::from(max_sheet.1);
+        if self.nest && few && best_sheets as u64 > cells.div_ceil(sheet_cells).max(1) {
+            orders.insert(0, order.clone());
+            if let Some((cand, sheets)) = nest::best_nest(items, &orders, max_sheet)
+                && score(&cand, sheets) < score(&best, best_sheets)
+            {
+                best = cand;
+                best_sheets = sheets;
             }
         }
         let sheets = vec![max_sheet; best_sheets];
@@ -714,6 +742,12 @@ fn info() -> PluginInfo {
                 default: ParamValue::Bool(true),
                 help: "also run passes that weigh the area a chart strands below itself, and keep \
                        the densest packing (false: the paper's lowest-horizon rule alone)",
+            },
+            ParamInfo {
+                name: "nest",
+                default: ParamValue::Bool(true),
+                help: "with few charts on more sheets than their area needs, also nest them on \
+                       their exact shapes and keep the smaller packing",
             },
         ],
     }

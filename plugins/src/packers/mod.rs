@@ -3,6 +3,7 @@
 
 pub mod fixtures;
 pub mod horizon;
+mod nest;
 pub mod rows;
 pub mod skyline;
 

@@ -178,3 +178,35 @@ fn the_area_fits_never_lose_to_the_lowest_horizon_rule_alone() {
     }
     assert!(sum_both < sum_paper, "area fits {sum_both} vs lowest horizon only {sum_paper}");
 }
+
+/// An S 60 cells wide and 50 tall: three bars 10 rows thick joined by posts on alternate sides,
+/// so a pocket 50 × 10 opens to the left (rows 10..20) and one to the right (rows 30..40).
+fn s_shape() -> Footprint {
+    let mut f = Footprint::new(60, 50).unwrap();
+    for y in (0..10).chain(20..30).chain(40..50) {
+        f.set_span(y, 0, 60);
+    }
+    for y in 10..20 {
+        f.set_span(y, 50, 60);
+    }
+    for y in 30..40 {
+        f.set_span(y, 0, 10);
+    }
+    f
+}
+
+#[test]
+fn bars_nest_in_the_pockets_of_an_s_instead_of_opening_a_second_sheet() {
+    // The S fills the sheet's box; each bar fits one pocket, and the three take 2720 of the
+    // sheet's 3000 cells. The horizons see every column of the S as solid, so without nesting
+    // the bars went to a second sheet.
+    let bar =
+        || PackItem { footprint: Footprint::filled(45, 8).unwrap(), rotations: ALL_ROTATIONS };
+    let items = vec![PackItem { footprint: s_shape(), rotations: ALL_ROTATIONS }, bar(), bar()];
+    let sheet = (60, 50);
+    let plain = HorizonPacker { nest: false, ..HorizonPacker::default() };
+    assert_eq!(run(&plain, &items, sheet).sheets.len(), 2);
+    let out = run(&HorizonPacker::default(), &items, sheet);
+    assert_eq!(out.sheets.len(), 1, "{:?}", out.placements);
+    assert_eq!(out, run(&HorizonPacker::default(), &items, sheet));
+}

@@ -11,6 +11,11 @@ use crate::pipeline::PipelineError;
 use crate::pipeline::charts::PackingCharts;
 use crate::topology::Topology;
 use crate::warnings::{Warning, WarningCode};
+use std::time::Instant;
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
 
 /// What the packing reads of the merge: the UV border length and the distortion budget left.
 #[derive(Clone, Copy)]
@@ -48,6 +53,25 @@ pub(super) fn pack_warnings(report: &PackReport) -> Vec<Warning> {
             ),
         ));
     }
+    if report.texels > report.input_texels && report.texel_scale <= 1.0 {
+        let grew = report.texels as f64 / report.input_texels.max(1) as f64 - 1.0;
+        warnings.push(Warning::new(
+            WarningCode::AtlasGrew,
+            format!(
+                "the {} output sheets hold {} texels, {:.1}% more than the input's {}: the packer \
+                 found no packing of the {} charts within the input's texel count (sheet limit \
+                 {}x{}, {} other shapes of its area tried)",
+                report.sheets,
+                report.texels,
+                100.0 * grew,
+                report.input_texels,
+                report.charts,
+                report.max_sheet_size.0,
+                report.max_sheet_size.1,
+                report.sheet_shapes_tried
+            ),
+        ));
+    }
     if report.texel_clashes_left > 0 {
         warnings.push(Warning::new(
             WarningCode::TexelClashesLeft,
@@ -72,17 +96,23 @@ pub(super) fn pack_stage(
     merged: Merged,
 ) -> Result<(PackedLayout, Palette, Option<UntangleReport>), PipelineError> {
     let sizes = &loaded.input_sheet_sizes;
+    let t = Instant::now();
     let (palette_faces, segments) = charts.take_palette_faces(topo);
+    let palette_faces_ms = ms(t);
+    let t = Instant::now();
     let rigid_split = if cfg.pack.split_rigid_ratio > 0.0 {
         Some(charts.split_rigid(topo, sizes, &cfg.pack, merged.border_len)?)
     } else {
         None
     };
+    let split_rigid_ms = ms(t);
+    let t = Instant::now();
     let mut untangled = None;
     if let (Some(opts), false) = (&cfg.untangle, plugins.untangle_solvers.is_empty()) {
         let solvers = &mut plugins.untangle_solvers;
         untangled = Some(charts.untangle(topo, sizes, &cfg.pack, solvers, opts, merged.budget)?);
     }
+    let untangle_ms = ms(t);
     let packer = plugins.packer.as_ref();
     let mut packed = pack_layout(&charts.layout_input(topo, sizes), packer, &cfg.pack)?;
     // A packing of other charts puts every face at another sub-texel offset, so a new packing
@@ -90,10 +120,13 @@ pub(super) fn pack_stage(
     // both faces of every pair in the last round (a face alone in its chart clashes with no
     // other).
     let mut round = 0;
+    let mut detach_ms = 0.0;
     while !packed.clashing_pairs.is_empty() && round < MAX_DETACH_ROUNDS {
         round += 1;
         let both = round == MAX_DETACH_ROUNDS;
+        let t = Instant::now();
         let detached = charts.detach_clashes(topo, &packed, both);
+        detach_ms += ms(t);
         let earlier = packed.report;
         packed = pack_layout(&charts.layout_input(topo, sizes), packer, &cfg.pack)?;
         add_earlier_attempt(&mut packed.report, &earlier, detached);
@@ -108,8 +141,13 @@ pub(super) fn pack_stage(
         max_sheet_size: packed.report.max_sheet_size,
         may_widen: cfg.pack.sheet_size.is_none(),
     };
+    let t = Instant::now();
     let palette =
         place_palette_blocks(topo, charts, &mut packed, &palette_faces, segments, space, &cfg.pack);
+    let r = &mut packed.report;
+    (r.palette_faces_ms, r.split_rigid_ms, r.untangle_ms) =
+        (palette_faces_ms, split_rigid_ms, untangle_ms);
+    (r.detach_ms, r.palette_ms) = (detach_ms, ms(t));
     Ok((packed, palette, untangled))
 }
 
