@@ -17,9 +17,9 @@
 #   -- ARGS...       extra arguments for `scanatlas defrag` (e.g. --merge-only)
 #
 # The prediction: a judgement reads two charts and a commit writes two, so on N engines the
-# queue takes at least its span S and at least its work W over N; the speed-up predicted from
-# the one-thread run is W / max(S, W / N). The master settles operations in queue order, so the
-# settling time bounds it too (printed beside it).
+# queue takes at least its span S and at least its work W over N; and the master settles every
+# operation in queue order itself, so it takes at least the settling time s. The speed-up
+# predicted from the one-thread run is W / max(S, s, W / N).
 set -euo pipefail
 
 REPO=$(cd -- "$(dirname -- "${BASH_SOURCE[0]}")/.." && pwd)
@@ -116,7 +116,7 @@ for name in sorted({k[0] for k in by}):
         rs = by[(name, n)]
         mn = t(rs, lambda r: r[0]["merge"]["timings"]["total_ms"] / 1e3)
         wn = t(rs, lambda r: r[1])
-        pred = work / max(span, work / n) if span > 0 else float("nan")
+        pred = work / max(span, settle, work / n) if span > 0 else float("nan")
         lines.append(f"| {name} | {n} | {mn:.2f} | {wn:.2f} | {work:.2f} | {span:.2f} | "
                      f"{settle:.2f} | {work / span:.1f} | {m1 / mn:.2f}× | {pred:.2f}× | "
                      f"{w1 / wn:.2f}× |")
