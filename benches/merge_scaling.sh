@@ -49,14 +49,8 @@ done
 [[ -x /usr/bin/time ]] || { echo "needs GNU time at /usr/bin/time (Debian package 'time')" >&2; exit 2; }
 [[ -x $BIN ]] || (cd "$REPO" && cargo build --release -p scanatlas-cli)
 
-model_path() {
-    case $1 in
-        venus) echo "$DATA/venus-realitycapture/venus.nodraco.gltf";;
-        meshroom) echo "$DATA/meshroom-esp32cam/texturedMesh.obj";;
-        plane) echo "$DATA/sketchfab-plane-meal/scene.gltf";;
-        *) echo "$1";;
-    esac
-}
+# shellcheck source=models.sh
+source "$REPO/benches/models.sh"
 
 mkdir -p "$WORK"
 RUNS=()

@@ -53,14 +53,8 @@ done
 
 log() { echo "[peer_compare] $*" >&2; }
 
-model_path() {
-    case $1 in
-        venus) echo "$DATA/venus-realitycapture/venus.nodraco.gltf";;
-        meshroom) echo "$DATA/meshroom-esp32cam/texturedMesh.obj";;
-        plane) echo "$DATA/sketchfab-plane-meal/scene.gltf";;
-        *) echo "$1";;
-    esac
-}
+# shellcheck source=models.sh
+source "$REPO/benches/models.sh"
 
 for t in peer_defrag.sh evaluate.py; do
     [[ -f $TOOLS/$t ]] || { echo "missing $TOOLS/$t (use --tools)" >&2; exit 2; }
