@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # How the merge scales with threads: runs `scanatlas defrag` on each model with --threads 1 and
 # with every count given, and prints the merge's work, span and settling (report: merge.timings),
-# the speed-up they predict, and the speed-up measured, stage by stage and whole run.
+# the speed-up they predict, and the speed-up measured, for the merge and the whole run.
 #
 # Usage:
 #   benches/merge_scaling.sh [options] MODEL ...
