@@ -1,7 +1,7 @@
-//! The serial merge stage on a small synthetic terrain scan (about 30k faces, 24 cameras, two
-//! sheets), the synthetic shape whose merge refuses the most attempts for overlaps: the cost of
-//! the attempts an operation makes again after a refusal, whose solves the engine keeps (see
-//! `defrag::attempt::memo`). Quick enough to compare two builds of the engine.
+//! The serial merge stage on a small synthetic terrain scan (the parameters are below), a shape
+//! whose merge refuses attempts for overlaps: the cost of the attempts an operation makes again
+//! after a refusal, whose solves the engine keeps (see `defrag::attempt::memo`). Small enough to
+//! compare two builds of the engine.
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
