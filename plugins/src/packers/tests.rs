@@ -180,7 +180,8 @@ fn the_area_fits_never_lose_to_the_lowest_horizon_rule_alone() {
 }
 
 /// An S 60 cells wide and 50 tall: three bars 10 rows thick joined by posts on alternate sides,
-/// so a pocket 50 cells wide and 10 tall opens to the left (rows 10..20) and one to the right (rows 30..40).
+/// so a pocket 50 cells wide and 10 tall opens to the left (rows 10..20) and one to the right
+/// (rows 30..40).
 fn s_shape() -> Footprint {
     let mut f = Footprint::new(60, 50).unwrap();
     for y in (0..10).chain(20..30).chain(40..50) {
