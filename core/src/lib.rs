@@ -24,6 +24,7 @@ pub mod report;
 pub mod rng;
 pub mod synth;
 pub mod texture;
+mod timing;
 pub mod topology;
 pub mod union_find;
 pub mod vec3;

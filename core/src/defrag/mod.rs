@@ -70,11 +70,7 @@ use crate::plugin::Veto;
 
 use crate::geometry::DEGENERATE_AREA2;
 
-/// Milliseconds since `t`, for the stage timings of the merge report.
-#[inline]
-fn ms(t: std::time::Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
-}
+use crate::timing::ms;
 
 /// The parameters of the merge stage, with the paper's defaults (§5, digest §4.5).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]

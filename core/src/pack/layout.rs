@@ -2,6 +2,7 @@
 //! transforms (see the module documentation of `pack` for the overall plan).
 
 use crate::index::NONE;
+use crate::timing::ms;
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -156,10 +157,6 @@ fn rigid_faces(input: &LayoutInput, faces: &[u32], opts: &PackOptions) -> (Vec<R
         })
         .collect();
     (rigid, chart_area)
-}
-
-fn ms(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
 }
 
 /// The faces each chart's heaviest anchor group would preserve (the group [`pack_layout`] tries

@@ -2,6 +2,7 @@
 //! smoothing and the per-chart splitting of §4.2, run together, with the figures they report.
 //! Without the stage every chart is its own sub-chart at full resolution ([`whole_charts`]).
 
+use crate::timing::ms;
 use std::time::Instant;
 
 use super::cameras::PhotoCamera;
@@ -63,10 +64,6 @@ pub fn whole_charts(part: &Partition) -> Split {
         before_merge: n_charts,
         ..Split::default()
     }
-}
-
-fn ms(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
 }
 
 /// Faces per level.

@@ -2,6 +2,7 @@
 //! synthesis → write), with the plugins chosen by name from a [`Registry`] and a serializable run
 //! report.
 
+use crate::timing::ms;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -195,10 +196,6 @@ pub fn defrag(
     cfg: &DefragConfig,
 ) -> Result<DefragReport, PipelineError> {
     defrag_with_progress(input, output, registry, cfg, &mut |_| {})
-}
-
-fn ms(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
 }
 
 /// The plugins of a run, built (and their names and parameters checked) before any model is read.

@@ -1,6 +1,7 @@
 //! The emit stage of `defrag`: the output sheets resampled from the input's into the staging
 //! folder, and the output model pointing at them.
 
+use crate::timing::ms;
 use std::time::Instant;
 
 use super::PipelineError;
@@ -20,10 +21,6 @@ use crate::texture::resample::{FaceMapping, ResampleOptions, ResampleReport, res
 use crate::texture::{ImageFormat, TileStore};
 use crate::topology::Topology;
 use std::path::PathBuf;
-
-fn ms(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
-}
 
 /// What the colour synthesis made: the sheet files (in output sheet order), the resample
 /// report, and the face mappings with the input material of each, which the other maps reuse.

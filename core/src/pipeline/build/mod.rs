@@ -12,6 +12,7 @@ mod report;
 mod stages;
 mod texturing;
 
+use crate::timing::ms;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -201,10 +202,6 @@ impl BuildStage {
             Self::Write => "writing the model",
         }
     }
-}
-
-fn ms(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
 }
 
 /// Runs the whole build; see the module documentation.

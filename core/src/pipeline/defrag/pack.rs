@@ -9,13 +9,10 @@ use crate::pack::palette::{self, Palette, PaletteFace, PaletteSpace};
 use crate::pack::{PackOptions, PackReport, PackedLayout, pack_layout};
 use crate::pipeline::PipelineError;
 use crate::pipeline::charts::PackingCharts;
+use crate::timing::ms;
 use crate::topology::Topology;
 use crate::warnings::{Warning, WarningCode};
 use std::time::Instant;
-
-fn ms(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
-}
 
 /// What the packing reads of the merge: the UV border length and the distortion budget left.
 #[derive(Clone, Copy)]

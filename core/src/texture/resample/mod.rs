@@ -20,6 +20,7 @@ mod pushpull;
 mod tests;
 mod turn;
 
+use crate::timing::ms;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -331,7 +332,7 @@ pub fn resample_sheets(
         ..ResampleReport::default()
     };
     let buckets = Buckets::build(faces, out_sizes)?;
-    report.ms_bucket = ms_since(t0);
+    report.ms_bucket = ms(t0);
 
     let ctx = paint::Context { inputs, faces, plans: &plans, convs: &convs, format };
     let mut sheets = Vec::with_capacity(out_sizes.len());
@@ -379,11 +380,11 @@ pub fn resample_sheets(
         report.texels_sampled += counts.sampled;
         report.texels_ring += counts.ring;
         report.texels_overdrawn += counts.copied + counts.sampled + counts.ring - written;
-        report.ms_raster += ms_since(t);
+        report.ms_raster += ms(t);
 
         let t = Instant::now();
         report.texels_dilated += dilate(&mut store, &mut cov, opts.dilate)?;
-        report.ms_dilate += ms_since(t);
+        report.ms_dilate += ms(t);
 
         if opts.push_pull {
             let t = Instant::now();
@@ -391,7 +392,7 @@ pub fn resample_sheets(
             report.texels_push_pull += pp.filled;
             report.push_pull_levels = report.push_pull_levels.max(pp.levels);
             report.push_pull_pyramid_bytes = report.push_pull_pyramid_bytes.max(pp.pyramid_bytes);
-            report.ms_push_pull += ms_since(t);
+            report.ms_push_pull += ms(t);
         }
         if written == 0 {
             report.empty_sheets += 1;
@@ -402,7 +403,7 @@ pub fn resample_sheets(
         store.release_tile_rows(0, store.tiles_y());
         sheets.push(store);
     }
-    report.ms_total = ms_since(t0);
+    report.ms_total = ms(t0);
     report.raster_mtexel_per_s =
         per_us(report.texels_copied + report.texels_sampled, report.ms_raster);
     report.mtexel_per_s = per_us(report.texels_total, report.ms_total);
@@ -416,10 +417,6 @@ const BAND_BYTES: usize = if cfg!(test) { 1 } else { 64 << 20 };
 /// How many tile rows of `row_bytes` each make one band (at least one).
 pub(super) fn band_rows(row_bytes: usize) -> u32 {
     (BAND_BYTES / row_bytes.max(1)).clamp(1, u32::MAX as usize) as u32
-}
-
-fn ms_since(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
 }
 
 /// Texels per microsecond, 0 when no time was measured.
