@@ -333,7 +333,6 @@ pub fn pack_layout(
     let Packing { out, placed, sizes: sheet_sizes, limit, off_size, .. } = packing;
     report.max_sheet_size = limit;
     report.input_texels = input_texels;
-    report.texel_scale = opts.texel_scale;
     report.sheets_off_size = off_size;
     report.oversized_charts =
         out.oversized.iter().filter_map(|&i| framed.packed.get(i as usize).copied()).collect();

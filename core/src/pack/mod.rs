@@ -157,9 +157,6 @@ pub struct PackReport {
     /// is `max_sheet_size`).
     pub input_texels: u64,
     pub sheet_shapes_tried: usize,
-    /// The texel scale of the run (see `PackOptions::texel_scale`): above 1 the atlas grows by
-    /// design.
-    pub texel_scale: f64,
     /// Sheets of a fixed-size run (`sheet_size`) that could not keep that size, because a chart
     /// is larger than the fixed sheet; each is rounded up to the allowed sides instead.
     pub sheets_off_size: usize,

@@ -404,7 +404,8 @@ pub fn defrag_with_progress(
     let t = Instant::now();
     let written = written_figures(&model, output, &stats_opts, cfg.pack.texel_scale)?;
     let (input_stats, _) = input_stats.finish();
-    let mut pack_warnings = emitted.pack.as_ref().map(pack_warnings).unwrap_or_default();
+    let mut pack_warnings =
+        emitted.pack.as_ref().map(|r| pack_warnings(r, cfg.pack.texel_scale)).unwrap_or_default();
     pack_warnings.extend(budget_warning(written.distortion, merge_opts.global_distortion));
     let map_warnings = [super::maps::untouched_map_warnings(&model), emitted.map_warnings].concat();
     let warnings = [

@@ -25,9 +25,10 @@ pub(super) struct Merged {
 /// round detaches both faces of every pair left.
 const MAX_DETACH_ROUNDS: usize = 4;
 
-/// The warnings of a packing: sheets over a fixed size, faces detached for texel clashes, and
-/// clashes left.
-pub(super) fn pack_warnings(report: &PackReport) -> Vec<Warning> {
+/// The warnings of a packing: sheets over a fixed size, faces detached for texel clashes,
+/// clashes left, and an atlas that outgrew its input at a `texel_scale` of at most 1 (above 1 it
+/// grows by design).
+pub(super) fn pack_warnings(report: &PackReport, texel_scale: f64) -> Vec<Warning> {
     let mut warnings = Vec::new();
     if report.sheets_off_size > 0 {
         warnings.push(Warning::new(
@@ -50,7 +51,7 @@ pub(super) fn pack_warnings(report: &PackReport) -> Vec<Warning> {
             ),
         ));
     }
-    if report.texels > report.input_texels && report.texel_scale <= 1.0 {
+    if report.texels > report.input_texels && texel_scale <= 1.0 {
         let grew = report.texels as f64 / report.input_texels.max(1) as f64 - 1.0;
         warnings.push(Warning::new(
             WarningCode::AtlasGrew,
