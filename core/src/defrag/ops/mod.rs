@@ -111,7 +111,8 @@ impl Engine<'_> {
             return self.scan_neighbours(c, limit, out);
         }
         if memo.epoch[c.idx()] != memo.current {
-            let mut found = Vec::with_capacity(scratch::MEMO_CAP + 1);
+            let mut found = std::mem::take(&mut self.pairing.neighbours.found);
+            found.clear();
             self.scan_neighbours(c, scratch::MEMO_CAP, &mut found);
             let memo = &mut self.pairing.neighbours;
             memo.epoch[c.idx()] = memo.current;
@@ -119,6 +120,7 @@ impl Engine<'_> {
             for (slot, &n) in memo.first[c.idx()].iter_mut().zip(&found) {
                 *slot = n;
             }
+            memo.found = found;
         }
         let memo = &self.pairing.neighbours;
         let count = usize::from(memo.count[c.idx()]);

@@ -29,6 +29,8 @@ pub(in crate::defrag) struct NeighbourMemo {
     pub(super) first: Vec<[ChartId; MEMO_CAP]>,
     /// The epoch of the rescoring under way; 0 when none is (entries are never read then).
     pub(super) current: u32,
+    /// The buffer an entry is found in, kept so that filling one allocates nothing.
+    pub(super) found: Vec<ChartId>,
 }
 
 impl NeighbourMemo {
