@@ -220,8 +220,7 @@ impl Engine<'_> {
             commits: Vec::new(),
             in_flight: Vec::new(),
             done: Vec::new(),
-            to_shadows: links.to_shadows,
-            started: links.started,
+            links,
             judged: 0,
         };
         let stop = loop {
@@ -298,7 +297,7 @@ impl Engine<'_> {
         charts: (ChartId, ChartId),
         s: &Pending,
     ) -> Option<(Key, (ChartId, ChartId))> {
-        let look_ahead = LOOK_AHEAD * s.to_shadows.len().max(1);
+        let look_ahead = LOOK_AHEAD * s.links.to_shadows.len().max(1);
         let mut looked = Vec::with_capacity(look_ahead);
         let mut found = None;
         while looked.len() < look_ahead {
@@ -345,13 +344,13 @@ impl Engine<'_> {
             let entry = self.ops[op as usize].clone();
             let deferring = self.deferring;
             let request = Request { op, version, entry, key, charts: c, at, deferring };
-            let sent = s.to_shadows[shadow]
+            let sent = s.links.to_shadows[shadow]
                 .as_ref()
                 .is_some_and(|tx| tx.send(ToShadow::Judge(Box::new(request))).is_ok());
             if sent {
                 s.in_flight.push(InFlight { op, version, at, charts: c, shadow });
             } else {
-                s.to_shadows[shadow] = None;
+                s.links.to_shadows[shadow] = None;
             }
         }
     }
@@ -385,7 +384,7 @@ impl Engine<'_> {
             // another operation: the master, which has to settle this one next, judges it
             // itself rather than wait that long.
             if !untouched(f.charts, &s.commits[f.at..])
-                || s.started[f.shadow].load(Ordering::Acquire) != started_key(op, version)
+                || s.links.started[f.shadow].load(Ordering::Acquire) != started_key(op, version)
             {
                 return None;
             }
@@ -443,7 +442,9 @@ impl Engine<'_> {
 
 /// The master's ends of its links to the shadows.
 struct Links {
+    /// One sender per shadow, `None` once that shadow is gone.
     to_shadows: Vec<Option<Sender<ToShadow>>>,
+    /// Per shadow, the judgement it is making (see `started_key`).
     started: Vec<Arc<AtomicU64>>,
 }
 
@@ -453,10 +454,7 @@ struct Pending {
     commits: Vec<(ChartId, ChartId)>,
     in_flight: Vec<InFlight>,
     done: Vec<Judged>,
-    /// One sender per shadow, `None` once that shadow is gone.
-    to_shadows: Vec<Option<Sender<ToShadow>>>,
-    /// Per shadow, the judgement it is making (see `started_key`).
-    started: Vec<Arc<AtomicU64>>,
+    links: Links,
     /// Judgements made ahead so far.
     judged: u64,
 }
@@ -465,8 +463,8 @@ impl Pending {
     /// The live shadow with the fewest judgements pending, if it has fewer than `cap` (the
     /// first such shadow on a tie).
     fn least_busy(&self, cap: usize) -> Option<usize> {
-        (0..self.to_shadows.len())
-            .filter(|&i| self.to_shadows[i].is_some())
+        (0..self.links.to_shadows.len())
+            .filter(|&i| self.links.to_shadows[i].is_some())
             .map(|i| (self.in_flight.iter().filter(|f| f.shadow == i).count(), i))
             .min()
             .filter(|&(pending, _)| pending < cap)
@@ -475,7 +473,7 @@ impl Pending {
 
     /// Sends a commit to every live shadow to replay.
     fn replay(&mut self, record: Arc<CommitRecord>) {
-        for slot in &mut self.to_shadows {
+        for slot in &mut self.links.to_shadows {
             if let Some(tx) = slot
                 && tx.send(ToShadow::Replay(Arc::clone(&record))).is_err()
             {
