@@ -207,3 +207,27 @@ fn add_earlier_attempt(r: &mut PackReport, earlier: &PackReport, detached: usize
         *ms += earlier_ms;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grew(report: &PackReport, texel_scale: f64) -> bool {
+        pack_warnings(report, texel_scale).iter().any(|w| w.code == WarningCode::AtlasGrew)
+    }
+
+    #[test]
+    fn an_atlas_larger_than_its_input_warns_unless_the_texel_scale_asks_for_it() {
+        let report = PackReport {
+            texels: 5_000_000,
+            input_texels: 4_194_304,
+            sheets: 2,
+            ..PackReport::default()
+        };
+        assert!(grew(&report, 1.0));
+        assert!(grew(&report, 0.5));
+        assert!(!grew(&report, 2.0), "a texel scale above 1 grows the atlas by design");
+        let smaller = PackReport { texels: 4_000_000, ..report };
+        assert!(!grew(&smaller, 1.0));
+    }
+}
