@@ -397,6 +397,13 @@ pub fn defrag_with_progress(
         .iter()
         .map(|m| WrittenMap { path: ctx.final_path(&m.path), ..m.clone() })
         .collect();
+    let mut pack_warnings =
+        emitted.pack.as_ref().map(|r| pack_warnings(r, cfg.pack.texel_scale)).unwrap_or_default();
+    let map_warnings = [super::maps::untouched_map_warnings(&model), emitted.map_warnings].concat();
+    // A strict run fails before its outputs are committed on every warning known by now: only
+    // the distortion read back from the written file comes later.
+    crate::warnings::check_strict(cfg.strict, &pack_warnings)?;
+    crate::warnings::check_strict(cfg.strict, &map_warnings)?;
     ctx.commit()?;
     times.write_ms = ms(t);
 
@@ -404,10 +411,7 @@ pub fn defrag_with_progress(
     let t = Instant::now();
     let written = written_figures(&model, output, &stats_opts, cfg.pack.texel_scale)?;
     let (input_stats, _) = input_stats.finish();
-    let mut pack_warnings =
-        emitted.pack.as_ref().map(|r| pack_warnings(r, cfg.pack.texel_scale)).unwrap_or_default();
     pack_warnings.extend(budget_warning(written.distortion, merge_opts.global_distortion));
-    let map_warnings = [super::maps::untouched_map_warnings(&model), emitted.map_warnings].concat();
     let warnings = [
         &model.warnings[..],
         &prepare_warnings[..],
