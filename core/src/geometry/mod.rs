@@ -38,6 +38,18 @@ pub fn dist(p: [f64; 2], q: [f64; 2]) -> f64 {
     norm(p[0] - q[0], p[1] - q[1])
 }
 
+/// Barycentric coordinates of `p` in triangle `t` (the centroid for a degenerate triangle).
+#[inline]
+pub fn barycentric(t: [[f64; 2]; 3], p: [f64; 2]) -> [f64; 3] {
+    let d = (t[1][0] - t[0][0]) * (t[2][1] - t[0][1]) - (t[2][0] - t[0][0]) * (t[1][1] - t[0][1]);
+    if d.abs() < 1e-300 {
+        return [1.0 / 3.0; 3];
+    }
+    let b1 = ((p[0] - t[0][0]) * (t[2][1] - t[0][1]) - (t[2][0] - t[0][0]) * (p[1] - t[0][1])) / d;
+    let b2 = ((t[1][0] - t[0][0]) * (p[1] - t[0][1]) - (p[0] - t[0][0]) * (t[1][1] - t[0][1])) / d;
+    [1.0 - b1 - b2, b1, b2]
+}
+
 #[cfg(test)]
 mod norm_tests {
     use super::norm;

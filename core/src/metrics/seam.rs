@@ -4,6 +4,7 @@
 //! rig (`synth::rig_score`), so both tools are measured by the same code.
 
 use super::weld;
+use crate::geometry::barycentric;
 use crate::model::Model;
 use crate::photo_atlas::smoothing;
 use crate::texture::TileStore;
@@ -179,15 +180,4 @@ pub fn seam_jump_against(
         true_jump: truth.map(|_| mean(sum_true)),
         excess: truth.map(|_| mean(sum_excess)),
     }
-}
-
-/// Barycentric coordinates of `p` in triangle `t` (the centroid for a degenerate triangle).
-pub fn barycentric(t: [[f64; 2]; 3], p: [f64; 2]) -> [f64; 3] {
-    let d = (t[1][0] - t[0][0]) * (t[2][1] - t[0][1]) - (t[2][0] - t[0][0]) * (t[1][1] - t[0][1]);
-    if d.abs() < 1e-300 {
-        return [1.0 / 3.0; 3];
-    }
-    let b1 = ((p[0] - t[0][0]) * (t[2][1] - t[0][1]) - (t[2][0] - t[0][0]) * (p[1] - t[0][1])) / d;
-    let b2 = ((t[1][0] - t[0][0]) * (p[1] - t[0][1]) - (p[0] - t[0][0]) * (t[1][1] - t[0][1])) / d;
-    [1.0 - b1 - b2, b1, b2]
 }

@@ -13,6 +13,7 @@
 //! Determinism (invariant 4): a tile is written by one worker only, and its faces are visited in
 //! increasing face index, so where faces overlap the later face wins whatever the thread count.
 
+mod border;
 mod paint;
 mod pixel;
 mod pushpull;
@@ -95,6 +96,10 @@ pub struct ResampleReport {
     /// grid-preserved face reads them (its ring; counted in `texels_written`, not in
     /// `texels_copied`).
     pub texels_ring: u64,
+    /// Texels outside every face sampled from the input because bilinear sampling of a resampled
+    /// face reads them (its ring, under the face's map extended past its edges; counted in
+    /// `texels_written`, not in `texels_sampled`).
+    pub texels_ring_sampled: u64,
     /// Writes over a texel an earlier face already wrote (overlapping output triangles).
     pub texels_overdrawn: u64,
     /// Texels filled by gutter dilation.
@@ -146,6 +151,8 @@ struct Plan {
     exact: Option<GridTransform>,
     /// How a normal turns on this face; `None` for the identity and for colour sheets.
     turn: Option<turn::Turn>,
+    /// The face has an edge no other face shares, so its ring may lie outside every face.
+    border: bool,
 }
 
 fn mapping_err(msg: String) -> TextureError {
@@ -186,7 +193,7 @@ fn plan_face(
         (true, Some(g)) => turn::Turn::of_grid(g),
         (true, None) => turn::Turn::of_triangles(&f.src, &f.dst),
     };
-    Ok(Plan { exact, turn })
+    Ok(Plan { exact, turn, border: true })
 }
 
 /// The tiles `[tx0, tx1] × [ty0, ty1]` the bounding box of an output triangle overlaps, or `None`
@@ -231,8 +238,8 @@ impl Buckets {
             let s = f.dst_sheet as usize;
             let (w, h) = out_sizes[s];
             let tiles_x = w.div_ceil(TILE) as usize;
-            // A grid-preserved face also paints its ring, up to two texels beyond its box.
-            let margin = if f.exact.is_some() { 2.0 } else { 0.0 };
+            // A face also paints its ring, up to two texels beyond its box.
+            let margin = 2.0;
             if let Some((tx0, tx1, ty0, ty1)) = tile_span(&f.dst, w, h, margin) {
                 for ty in ty0..=ty1 {
                     for tx in tx0..=tx1 {
@@ -318,6 +325,11 @@ pub fn resample_sheets(
         .enumerate()
         .map(|(k, f)| plan_face(k, f, inputs.len(), out_sizes.len(), opts.normals))
         .collect::<Result<Vec<Plan>, _>>()?;
+    let plans: Vec<Plan> = plans
+        .into_iter()
+        .zip(border::border_faces(faces))
+        .map(|(p, border)| Plan { border, ..p })
+        .collect();
     let mut report = ResampleReport {
         sheets: out_sizes.len(),
         format: Some(format),
@@ -355,7 +367,7 @@ pub fn resample_sheets(
             let c = store
                 .par_tile_rows_mut(ty0, ty1)
                 .zip(cov.par_tile_rows_mut(ty0, ty1))
-                .map(|((tx, ty, px), (_, _, bits))| {
+                .map_init(paint::RingScratch::new, |nearest, ((tx, ty, px), (_, _, bits))| {
                     let rect = super::raster::PixelRect::new(
                         tx * TILE,
                         ty * TILE,
@@ -363,7 +375,7 @@ pub fn resample_sheets(
                         ((ty + 1) * TILE).min(h),
                     );
                     let t = (ty * w.div_ceil(TILE) + tx) as usize;
-                    ctx.paint_tile(px, bits, rect, h, buckets.tile(s, t))
+                    ctx.paint_tile(px, bits, rect, h, buckets.tile(s, t), nearest)
                 })
                 .reduce(paint::Counts::default, paint::Counts::add);
             counts = paint::Counts::add(counts, c);
@@ -379,7 +391,9 @@ pub fn resample_sheets(
         report.texels_copied += counts.copied;
         report.texels_sampled += counts.sampled;
         report.texels_ring += counts.ring;
-        report.texels_overdrawn += counts.copied + counts.sampled + counts.ring - written;
+        report.texels_ring_sampled += counts.ring_sampled;
+        report.texels_overdrawn +=
+            counts.copied + counts.sampled + counts.ring + counts.ring_sampled - written;
         report.ms_raster += ms(t);
 
         let t = Instant::now();

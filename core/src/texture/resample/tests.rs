@@ -257,12 +257,63 @@ fn triangles_sharing_an_edge_leave_no_gap_and_write_no_texel_twice() {
     let out =
         resample_sheets(&[&input], &faces, &[(400, 400)], &opts(dir.path(), 0, false)).unwrap();
     let r = &out.report;
-    // The preserved half's ring outside the square is copied too (see `paint_rings`).
-    assert!(r.texels_ring > 0, "{r:?}");
-    assert_eq!(r.texels_written, 130 * 90 + r.texels_ring, "every texel of the square, no gap");
+    // Both halves' rings outside the square are painted too (see `paint_rings`).
+    assert!(r.texels_ring > 0 && r.texels_ring_sampled > 0, "{r:?}");
+    assert_eq!(
+        r.texels_written,
+        130 * 90 + r.texels_ring + r.texels_ring_sampled,
+        "every texel of the square, no gap"
+    );
     assert_eq!(r.texels_copied + r.texels_sampled, 130 * 90);
     assert_eq!(r.texels_overdrawn, 0);
     assert!(r.texels_copied > 0 && r.texels_sampled > 0);
+}
+
+/// The ring of a resampled face (the texels outside it that bilinear sampling on it reads) holds
+/// the input under the face's map extended past its edges, so the face renders as in the input
+/// up to its edges; a face too thin for its map to be extended paints no ring.
+#[test]
+fn the_ring_of_a_resampled_face_continues_its_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let (w, h) = (200u32, 200u32);
+    // A linear ramp, which bilinear sampling reproduces exactly away from the sheet's edges.
+    let ramp = |x: f64, y: f64, c: usize| 20.0 + 0.7 * x + 0.3 * y + 10.0 * c as f64;
+    let input =
+        store_from(dir.path(), w, h, PixelFormat::RGB8, |i, j, c| ramp(i as f64, j as f64, c));
+    // Shifted by a quarter texel and turned by 20°: not grid-preserved.
+    let (c, s) = (20f64.to_radians().cos(), 20f64.to_radians().sin());
+    let dst = [[30.0, 30.0], [110.0, 40.0], [50.0, 120.0]];
+    let src = dst.map(|p| [c * p[0] - s * p[1] + 40.25, s * p[0] + c * p[1] + 10.25]);
+    // A sliver a tenth of a texel high, mapped onto a wide input triangle.
+    let thin_dst = [[140.0, 150.0], [180.0, 150.0], [160.0, 150.1]];
+    let thin_src = [[20.0, 150.0], [60.0, 150.0], [40.0, 180.0]];
+    let faces = [
+        FaceMapping { dst_sheet: 0, dst, src_sheet: 0, src, exact: None },
+        FaceMapping { dst_sheet: 0, dst: thin_dst, src_sheet: 0, src: thin_src, exact: None },
+    ];
+    let out = resample_sheets(&[&input], &faces, &[(w, h)], &opts(dir.path(), 0, false)).unwrap();
+    let inside: std::collections::HashSet<(u32, u32)> =
+        covered(dst, w, h).into_iter().map(|(i, j, _)| (i, j)).collect();
+    let mut ring = 0;
+    for j in 0..h {
+        for i in 0..w {
+            let centre = [i as f64 + 0.5, h as f64 - j as f64 - 0.5];
+            let b = crate::geometry::barycentric(dst, centre);
+            // Outside the face, but read by bilinear sampling on it: its ring.
+            if inside.contains(&(i, j)) || !paint::bilinear_reach(centre, &dst) {
+                continue;
+            }
+            let p = src_point(&src, b);
+            let px = out.sheets[0].pixel(i, j);
+            for (ch, &v) in px.iter().enumerate() {
+                let want = ramp(p[0] - 0.5, h as f64 - p[1] - 0.5, ch);
+                assert!((v as f64 - want).abs() <= 1.0, "ring texel ({i}, {j}): {v} for {want}");
+            }
+            ring += 1;
+        }
+    }
+    assert!(ring > 200, "{ring} ring texels");
+    assert_eq!(out.report.texels_ring_sampled, ring as u64, "the thin face paints no ring");
 }
 
 /// Random faces over two output sheets, overlapping one another, some grid-preserved.
