@@ -337,8 +337,8 @@ impl<'t> Engine<'t> {
     /// has an entry in every cell its box touches (often more than one), and counting faces
     /// made the grid rebuild far too often, spending most of its inserts on rebuilds. The bound
     /// is also the grid's memory: its cells keep the capacity of their fullest moment, in every
-    /// engine, and on a scan of millions of faces the stale entries that a bound of three to one
-    /// let pile up were the largest part of what the merge adds to the resident set. Which
+    /// engine, and on a scan of millions of faces stale entries are the largest part of what the
+    /// merge adds to the resident set, so they may not outnumber the live ones. Which
     /// entries are stale never changes a result, since every candidate is tested against its
     /// current triangle (the shadows' grids differ from the master's for the same reason).
     pub fn maybe_compact_grid(&mut self) {

@@ -68,7 +68,7 @@ fn allocate(file: &std::fs::File, len: u64, work_dir: &Path) -> Result<(), Textu
 /// Why: the page cache gives a file read through a mapping with readahead large folios (up to
 /// megabytes), and a fault on any byte of a large folio maps all of it, so a pass that reads a
 /// few texels here and there (the raster samples every input sheet at scattered places) puts
-/// whole folios in the resident set, gigabytes between two releases on a multi-sheet scan.
+/// whole folios in the resident set, far more than the texels it reads between two releases.
 /// Without readahead the kernel fills the file with base pages as they are first touched, and
 /// a fault maps one page plus the small fault-around window. The folios keep the size they were
 /// made with, so the advice must come before the first touch; it stays for the mapping's life,
