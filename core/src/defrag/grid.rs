@@ -5,6 +5,8 @@
 //! candidate is tested against its current triangle. A rolled-back attempt therefore needs no
 //! grid undo at all. When stale entries pile up the grid is rebuilt from the current layout.
 
+use smallvec::SmallVec;
+
 use crate::geometry::Tri2;
 
 /// 2^52: from here on every `f64` is a whole number.
@@ -23,6 +25,9 @@ fn floor(x: f64) -> f64 {
     }
 }
 
+/// The entries of one cell: inline up to four, then on the heap.
+type Cell = SmallVec<[u32; 4]>;
+
 /// Faces bucketed by the grid cells their bounding boxes touch.
 #[derive(Clone, Debug)]
 pub(crate) struct FaceGrid {
@@ -30,7 +35,10 @@ pub(crate) struct FaceGrid {
     inv_cell: f64,
     nx: u32,
     ny: u32,
-    cells: Vec<Vec<u32>>,
+    /// The faces of each cell. Most cells hold a few entries, so they are kept inline: a
+    /// separate allocation per cell cost more than the entries themselves on a scan of millions
+    /// of faces, in every engine.
+    cells: Vec<Cell>,
     entries: usize,
     /// Per face: the query that last returned it, to report each face once per query.
     stamp: Vec<u32>,
@@ -93,7 +101,7 @@ impl FaceGrid {
             inv_cell: 1.0 / cell,
             nx,
             ny,
-            cells: vec![Vec::new(); (nx as usize) * (ny as usize)],
+            cells: vec![Cell::new(); (nx as usize) * (ny as usize)],
             entries: 0,
             stamp: vec![0; n_faces],
             epoch: 0,
@@ -182,7 +190,7 @@ impl FaceGrid {
 
     /// Drops every entry, keeping the cells' capacity.
     pub fn clear(&mut self) {
-        self.cells.iter_mut().for_each(Vec::clear);
+        self.cells.iter_mut().for_each(Cell::clear);
         self.entries = 0;
     }
 }

@@ -332,12 +332,17 @@ impl<'t> Engine<'t> {
         [at(0), at(1), at(2)]
     }
 
-    /// Rebuilds the grid from the current layout once stale entries outnumber live ones 3 to 1.
+    /// Rebuilds the grid from the current layout once stale entries outnumber live ones.
     /// The live count is the grid's entries at its last rebuild, not the number of faces: a face
     /// has an entry in every cell its box touches (often more than one), and counting faces
-    /// made the grid rebuild far too often, spending most of its inserts on rebuilds.
+    /// made the grid rebuild far too often, spending most of its inserts on rebuilds. The bound
+    /// is also the grid's memory: its cells keep the capacity of their fullest moment, in every
+    /// engine, and on a scan of millions of faces stale entries are the largest part of what the
+    /// merge adds to the resident set, so they may not outnumber the live ones. Which
+    /// entries are stale never changes a result, since every candidate is tested against its
+    /// current triangle (the shadows' grids differ from the master's for the same reason).
     pub fn maybe_compact_grid(&mut self) {
-        if self.grid.entries() > 4 * self.grid_live.max(1) + 1024 {
+        if self.grid.entries() > 2 * self.grid_live.max(1) + 1024 {
             self.rebuild_grid();
         }
     }

@@ -63,6 +63,24 @@ fn allocate(file: &std::fs::File, len: u64, work_dir: &Path) -> Result<(), Textu
     file.set_len(len).map_err(file_err)
 }
 
+/// Asks the kernel not to read ahead in `map`, before any of its pages exists.
+///
+/// Why: the page cache gives a file read through a mapping with readahead large folios (up to
+/// megabytes), and a fault on any byte of a large folio maps all of it, so a pass that reads a
+/// few texels here and there (the raster samples every input sheet at scattered places) puts
+/// whole folios in the resident set, far more than the texels it reads between two releases.
+/// Without readahead the kernel fills the file with base pages as they are first touched, and
+/// a fault maps one page plus the small fault-around window. The folios keep the size they were
+/// made with, so the advice must come before the first touch; it stays for the mapping's life,
+/// which costs nothing while the file is in the page cache (the passes that sweep a store do so
+/// in bands of whole tile rows). A failure only means a larger resident set, so it is ignored.
+fn advise_small_pages(map: &MmapMut) {
+    #[cfg(unix)]
+    let _ = map.advise(memmap2::Advice::Random);
+    #[cfg(not(unix))]
+    let _ = map;
+}
+
 impl TileStore {
     /// Creates a zero-filled store of `width × height` pixels in a new file under `work_dir`.
     pub fn create(
@@ -96,6 +114,7 @@ impl TileStore {
         // SAFETY: the file has no name and this store owns its only descriptor; nobody else
         // truncates or writes it while it is mapped.
         let map = unsafe { MmapMut::map_mut(&file) }.map_err(file_err)?;
+        advise_small_pages(&map);
         super::work_usage::add(map.len() as u64);
         let work_dir = work_dir.to_path_buf();
         Ok(Self { width, height, format, tiles_x, tiles_y, map, work_dir, _file: file })
@@ -328,6 +347,42 @@ mod tests {
             "the backing file has no name, so nothing is left behind even by a kill"
         );
         drop(s);
+    }
+
+    /// This process's resident kilobytes of the mapping that starts at `addr`, from
+    /// `/proc/self/smaps`.
+    #[cfg(target_os = "linux")]
+    fn resident_kb(addr: usize) -> u64 {
+        let smaps = std::fs::read_to_string("/proc/self/smaps").unwrap();
+        let mut lines = smaps.lines();
+        let start = format!("{addr:x}-");
+        lines.by_ref().find(|l| l.starts_with(&start)).expect("the mapping is listed");
+        let rss = lines.find(|l| l.starts_with("Rss:")).unwrap();
+        rss.split_whitespace().nth(1).unwrap().parse().unwrap()
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn scattered_reads_map_only_what_they_touch() {
+        // A sheet written whole, released, then read one texel per 64 tiles, the way the raster
+        // samples an input: each read may map a page and its fault-around window, never the
+        // large folio readahead would have built around it.
+        let dir = tempfile::tempdir().unwrap();
+        let side = TILE * 16;
+        let mut s = TileStore::create(dir.path(), side, side, PixelFormat::RGBA8).unwrap();
+        s.par_tiles_mut().for_each(|(tx, ty, t)| t.fill((tx * 31 + ty + 1) as u8));
+        s.release_all();
+        assert!(resident_kb(s.map.as_ptr() as usize) < 1024, "released pages leave the set");
+        let mut sum = 0u64;
+        for k in 0..(s.tiles_x() * s.tiles_y()) / 4 {
+            let (tx, ty) = ((k * 4) % s.tiles_x(), (k * 4) / s.tiles_x());
+            sum += u64::from(s.pixel(tx * TILE + 7, ty * TILE + 100)[0]);
+        }
+        assert!(sum > 0);
+        let kb = resident_kb(s.map.as_ptr() as usize);
+        let total_kb = s.map.len() as u64 / 1024;
+        // 64 reads of 64 KiB windows at most is 4 MiB of the 64 MiB store.
+        assert!(kb <= 8 * 1024, "{kb} kB of {total_kb} kB resident after 64 scattered reads");
     }
 
     #[test]
