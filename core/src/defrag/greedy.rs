@@ -122,22 +122,28 @@ impl Engine<'_> {
         self.report.timings.scoring_ms += ts.elapsed().as_secs_f64() * 1e3;
     }
 
-    /// At an empty queue: the parked operations in `scope` first (see [`Self::sweep_parked`]),
-    /// then the deferred ones (see [`Self::start_second_pass`]). `false` when the merge is over.
+    /// At an empty queue: the deferred operations in `scope` at the end of the first pass (see
+    /// [`Self::start_second_pass`]), the parked ones at the end of the last (see
+    /// [`Self::sweep_parked`]). `false` when the merge is over. Sweeping at the end of the first
+    /// pass as well retried operations that the second pass queues anyway, and the refusals it
+    /// added changed their back-off and so the order of the second pass.
     pub(super) fn refill(
         &mut self,
         scorer: &dyn MergeScorer,
         queue: &mut Queue,
         scope: Option<&[bool]>,
     ) -> bool {
-        self.sweep_parked(scorer, queue, scope) || self.start_second_pass(scorer, queue, scope)
+        if self.deferring {
+            return self.start_second_pass(scorer, queue, scope);
+        }
+        self.sweep_parked(scorer, queue, scope)
     }
 
-    /// At an empty queue: scores again every failed operation in `scope` that a commit into one
-    /// of its charts has come to since its refusal, none of them near what the refusal read (see
-    /// `reach`). Such a commit could still have changed the verdict through what the read region
-    /// leaves out, so every merge the queue would once have retried gets one more attempt
-    /// before the pass ends. `true` if any went back into the queue.
+    /// At the end of the queue: scores again every failed operation in `scope` that a commit
+    /// into one of its charts has come to since its refusal, none of them near what the refusal
+    /// read (see `reach`). Such a commit could still have changed the verdict through what the
+    /// read region leaves out, so every merge the queue would once have retried gets one more
+    /// attempt before the merge ends. `true` if any went back into the queue.
     fn sweep_parked(
         &mut self,
         scorer: &dyn MergeScorer,
@@ -397,7 +403,14 @@ impl Engine<'_> {
                     if self.commit_reaches(op, written.as_ref()) {
                         self.rescore(op, scorer, queue, scope);
                     } else {
-                        self.ops[op as usize].parked = true;
+                        // The retry the commit would have brought would build the same problem
+                        // and be refused again: its back-off counts it, as if it had run, so
+                        // that the operation keeps the place in the queue it would have had.
+                        let o = &mut self.ops[op as usize];
+                        if !o.parked {
+                            o.failures += 1;
+                        }
+                        o.parked = true;
                     }
                 }
                 _ => {}

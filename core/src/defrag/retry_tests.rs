@@ -149,7 +149,7 @@ fn the_sweep_at_the_end_of_the_queue_retries_the_parked_operations() {
     assert!(o.state == OpState::Queued && !o.parked, "{:?}", o.state);
     assert_eq!(e.report.parked_swept, 1);
     assert!(queue.iter().any(|&(_, std::cmp::Reverse(op), _)| op == towards_b));
-    // Nothing is parked any more: the next refill is the second pass's, which has nothing.
+    // Nothing is parked any more, and the queue is past its first pass: the merge is over.
     queue.clear();
     e.deferring = false;
     assert!(!e.refill(&ByError, &mut queue, None));
