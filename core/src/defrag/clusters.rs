@@ -464,6 +464,8 @@ fn import(master: &mut Engine<'_>, cluster: &[u32], busy: &[bool], results: Vec<
             version: 0,
             island: false,
             geom: None,
+            read: None,
+            parked: false,
         });
     }
     for list in &mut master.chart_ops {

@@ -3,6 +3,7 @@
 //! a commit that lets another engine replay it (see `speculate`).
 
 use super::ops::OpGeometry;
+use super::reach::{EMPTY, WrittenRegion, grow};
 use super::state::{Engine, NONE, orig_tri};
 use super::undo::Saved;
 use crate::geometry::dist;
@@ -176,12 +177,29 @@ impl Engine<'_> {
             bbox = [bbox[0].min(p[0]), bbox[1].min(p[1]), bbox[2].max(p[0]), bbox[3].max(p[1])];
         }
         self.t.charts[a].bbox = bbox;
+        self.trial.written = Some(self.written_region(g));
         self.log.pos.commit();
         self.log.corner.commit();
         self.log.twin.commit();
         self.log.head.commit();
         self.log.tail.commit();
         self.log.next.commit();
+    }
+
+    /// What the commit in progress wrote (see `reach`): the re-optimized faces, the fused
+    /// vertices and the whole moved chart, where they are now, in the staying chart's frame.
+    fn written_region(&self, g: &OpGeometry) -> WrittenRegion {
+        let mut bbox = EMPTY;
+        for &f in &self.area.opt_faces {
+            for p in self.tri(f as usize) {
+                bbox = grow(bbox, p);
+            }
+        }
+        let seeds = self.area.seeds.iter().map(|&(v, _)| v);
+        for v in self.trial.moved.iter().copied().chain(seeds) {
+            bbox = grow(bbox, self.t.uv_pos[v as usize]);
+        }
+        WrittenRegion { into: g.a, bbox }
     }
 
     /// Puts the layout back as it was before the attempt.

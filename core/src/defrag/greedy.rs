@@ -1,7 +1,8 @@
 //! The greedy loop of the paper's Algorithm 1: a priority queue of operations by appeal with lazy
 //! invalidation (an entry is live only while its version is the operation's current one), ties
 //! broken by operation id; after an accepted merge the operations of the merged chart are joined
-//! per neighbour, rescored, and failed ones come back with their back-off (paper §4.4).
+//! per neighbour, rescored, and failed ones come back with their back-off (paper §4.4) when the
+//! merge wrote near what their refusal read (see `reach`), or in a sweep at the end of the queue.
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -9,6 +10,7 @@ use std::time::Instant;
 
 use super::ops::{EngineOp, OpGeometry, OpState};
 use super::ord::OrdF64;
+use super::reach::WrittenRegion;
 use super::span::CriticalPath;
 use super::state::{Engine, MergedLayout};
 use super::{DefragError, MergeOptions, MergeReport, RejectReason, StopReason};
@@ -69,7 +71,7 @@ impl Engine<'_> {
             }
             let Some((_, Reverse(op), version)) = queue.pop() else {
                 let t = Instant::now();
-                if self.start_second_pass(scorer, &mut queue, scope) {
+                if self.refill(scorer, &mut queue, scope) {
                     path.book_free(super::ms(t));
                     continue;
                 }
@@ -118,6 +120,49 @@ impl Engine<'_> {
         }
         self.pairing.neighbours.end();
         self.report.timings.scoring_ms += ts.elapsed().as_secs_f64() * 1e3;
+    }
+
+    /// At an empty queue: the deferred operations in `scope` at the end of the first pass (see
+    /// [`Self::start_second_pass`]), the parked ones at the end of the last (see
+    /// [`Self::sweep_parked`]). `false` when the merge is over. Sweeping at the end of the first
+    /// pass as well retried operations that the second pass queues anyway, and the refusals it
+    /// added changed their back-off and so the order of the second pass.
+    pub(super) fn refill(
+        &mut self,
+        scorer: &dyn MergeScorer,
+        queue: &mut Queue,
+        scope: Option<&[bool]>,
+    ) -> bool {
+        if self.deferring {
+            return self.start_second_pass(scorer, queue, scope);
+        }
+        self.sweep_parked(scorer, queue, scope)
+    }
+
+    /// At the end of the queue: scores again every failed operation in `scope` that a commit
+    /// into one of its charts has come to since its refusal, none of them near what the refusal
+    /// read (see `reach`). Such a commit could still have changed the verdict through what the
+    /// read region leaves out, so every merge the queue would once have retried gets one more
+    /// attempt before the merge ends. `true` if any went back into the queue.
+    fn sweep_parked(
+        &mut self,
+        scorer: &dyn MergeScorer,
+        queue: &mut Queue,
+        scope: Option<&[bool]>,
+    ) -> bool {
+        let before = queue.len();
+        let ts = Instant::now();
+        self.pairing.neighbours.begin(self.t.charts.len());
+        for op in 0..self.ops.len() as u32 {
+            let o = &self.ops[op as usize];
+            if o.parked && matches!(o.state, OpState::Failed(_)) && self.in_scope(op, scope) {
+                self.report.parked_swept += 1;
+                self.rescore(op, scorer, queue, scope);
+            }
+        }
+        self.pairing.neighbours.end();
+        self.report.timings.scoring_ms += ts.elapsed().as_secs_f64() * 1e3;
+        queue.len() > before
     }
 
     /// At an empty queue: ends the first pass, if the queue was deferring, by queueing the
@@ -192,6 +237,9 @@ impl Engine<'_> {
         queue: &mut Queue,
         scope: Option<&[bool]>,
     ) {
+        if self.ops[op as usize].failures > 0 {
+            self.report.retried += 1;
+        }
         match result {
             Ok(g) => {
                 self.report.accepted += 1;
@@ -205,7 +253,9 @@ impl Engine<'_> {
             }
             Err(r) => {
                 self.report.rejected.add(r);
+                let read = self.trial.read.take();
                 let o = &mut self.ops[op as usize];
+                o.read = read;
                 o.failures += 1;
                 o.version += 1;
                 o.state = OpState::Failed(r);
@@ -232,6 +282,22 @@ impl Engine<'_> {
 }
 
 impl Engine<'_> {
+    /// Whether the commit that wrote `written` can change the verdict of the failed operation
+    /// `op`: always, unless its refusal read only a region near its seams (see `reach`) and the
+    /// commit wrote away from it. Counted in the report either way.
+    fn commit_reaches(&mut self, op: u32, written: Option<&WrittenRegion>) -> bool {
+        let reached = match (self.ops[op as usize].read, written) {
+            (Some(read), Some(w)) => read.reached_by(w, self.stay_and_move(op)),
+            _ => true,
+        };
+        if reached {
+            self.report.retries_queued += 1;
+        } else {
+            self.report.retries_parked += 1;
+        }
+        reached
+    }
+
     /// Scores `op` again in the current layout: queued with a new version, or vetoed.
     fn rescore(
         &mut self,
@@ -247,6 +313,7 @@ impl Engine<'_> {
         let features = self.features(op);
         let o = &mut self.ops[op as usize];
         o.version += 1;
+        o.parked = false;
         o.island = features.island_lookahead;
         match scorer.score(&features) {
             Score::Appeal(x) => {
@@ -274,6 +341,7 @@ impl Engine<'_> {
         scope: Option<&[bool]>,
     ) {
         let a = g.a;
+        let written = self.trial.written.take();
         let mut list = std::mem::take(&mut self.chart_ops[a.idx()]);
         if g.inter {
             list.append(&mut std::mem::take(&mut self.chart_ops[g.b.idx()]));
@@ -331,7 +399,20 @@ impl Engine<'_> {
             let op = self.chart_ops[a.idx()][i];
             match self.ops[op as usize].state {
                 OpState::Queued | OpState::Vetoed(_) => self.rescore(op, scorer, queue, scope),
-                OpState::Failed(_) if !self.opts.no_retry => self.rescore(op, scorer, queue, scope),
+                OpState::Failed(_) if !self.opts.no_retry => {
+                    if self.commit_reaches(op, written.as_ref()) {
+                        self.rescore(op, scorer, queue, scope);
+                    } else {
+                        // The retry the commit would have brought would build the same problem
+                        // and be refused again: its back-off counts it, as if it had run, so
+                        // that the operation keeps the place in the queue it would have had.
+                        let o = &mut self.ops[op as usize];
+                        if !o.parked {
+                            o.failures += 1;
+                        }
+                        o.parked = true;
+                    }
+                }
                 _ => {}
             }
         }

@@ -64,6 +64,11 @@ pub(crate) fn max_cells(n_faces: usize) -> usize {
 }
 
 impl FaceGrid {
+    /// The side of a cell.
+    pub fn cell(&self) -> f64 {
+        1.0 / self.inv_cell
+    }
+
     /// An empty grid covering `extent` (`[min x, min y, max x, max y]`) with square cells of side
     /// `cell`, for faces `0..n_faces`. Points outside the extent wrap around (see `axis_span`).
     ///

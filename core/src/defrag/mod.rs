@@ -13,6 +13,8 @@
 //! - `kernel` and `separate`: repairs of a fused start and of a solve's leftover overlaps;
 //! - `verdict`: the checks of a solved attempt; `commit`: its commit, rollback and record;
 //! - `attempt`: one merge attempt from alignment to commit or rollback;
+//! - `reach`: what a refused attempt read and what a commit wrote, for deciding which failed
+//!   operations a commit brings back;
 //! - `greedy`: the priority queue and the rescoring after each accepted merge;
 //! - `speculate`: the last round's queue with shadow engines judging operations ahead of it;
 //! - `span`: the queue's work and span, which bound what more cores can gain;
@@ -21,8 +23,8 @@
 //! - `unfold`: charts folded flat onto themselves laid out again as a flat net at the end.
 //!
 //! Layers: a module imports only from the layers below its own.
-//! 0. `undo`, `grid`, `kernel`, `ord`, `output`, `span`: plain data and pure functions that know nothing
-//!    of the engine;
+//! 0. `undo`, `grid`, `kernel`, `ord`, `output`, `reach`, `span`: plain data and pure functions
+//!    that know nothing of the engine;
 //! 1. `ops::table` and the scratch types (`ops::scratch`, `patch::scratch`, `separate::scratch`,
 //!    `verdict::scratch`, `attempt::scratch`);
 //! 2. `state`: the `Engine` struct, which holds the state and one scratch struct per module;
@@ -43,6 +45,7 @@ mod ops;
 mod ord;
 mod output;
 mod patch;
+mod reach;
 mod separate;
 mod span;
 mod speculate;
@@ -55,6 +58,8 @@ mod zero_area;
 
 pub(crate) use grid::tri_bbox;
 
+#[cfg(test)]
+mod retry_tests;
 #[cfg(test)]
 mod tests;
 
@@ -414,6 +419,15 @@ pub struct MergeReport {
     pub accepted: u64,
     /// Accepted operations that had failed before (successes of a retry).
     pub accepted_after_failure: u64,
+    /// Attempts of operations that had failed before (retries), whatever their outcome.
+    pub retried: u64,
+    /// Failed operations of a chart that a commit went into, by what the commit did with them:
+    /// queued again (it wrote near what their refusal read, or their refusal read more than that)
+    /// or parked (it did not; see `reach`); and parked operations queued again by the sweep at
+    /// the end of a pass.
+    pub retries_queued: u64,
+    pub retries_parked: u64,
+    pub parked_swept: u64,
     pub rejected: RejectCounts,
     pub vetoes: VetoCounts,
     /// Solves rerun with the vertices of overlapping triangles frozen.
@@ -479,6 +493,10 @@ impl MergeReport {
         self.attempted += o.attempted;
         self.accepted += o.accepted;
         self.accepted_after_failure += o.accepted_after_failure;
+        self.retried += o.retried;
+        self.retries_queued += o.retries_queued;
+        self.retries_parked += o.retries_parked;
+        self.parked_swept += o.parked_swept;
         let (r, q) = (&mut self.rejected, &o.rejected);
         r.early_overlap += q.early_overlap;
         r.topology += q.topology;

@@ -38,6 +38,7 @@ use super::commit::CommitRecord;
 use super::greedy::Queue;
 use super::ops::EngineOp;
 use super::ord::OrdF64;
+use super::reach::ReadRegion;
 use super::span::CriticalPath;
 use super::state::{Engine, Parts};
 use super::{MergeReport, RejectReason, StopReason};
@@ -116,6 +117,8 @@ struct Judged {
     energy_num: f64,
     checks: Vec<(f64, f64)>,
     outcome: Result<CommitRecord, RejectReason>,
+    /// What a refused attempt read (see `reach`).
+    read: Option<ReadRegion>,
     /// The counts and times of the attempt (no commit in them), and how long it took.
     report: MergeReport,
     ms: f64,
@@ -231,7 +234,7 @@ impl Engine<'_> {
                 // Every request was for an operation queued before: none is judged under the
                 // wrong pass (the second pass queues new versions only).
                 let t = Instant::now();
-                if self.start_second_pass(scorer, &mut queue, None) {
+                if self.refill(scorer, &mut queue, None) {
                     path.book_free(super::ms(t));
                     continue;
                 }
@@ -259,7 +262,10 @@ impl Engine<'_> {
                     settle_start = Instant::now();
                     match j.outcome {
                         Ok(r) => (Ok(self.apply_record(&r)), Some(r), j.ms),
-                        Err(e) => (Err(e), None, j.ms),
+                        Err(e) => {
+                            self.trial.read = j.read;
+                            (Err(e), None, j.ms)
+                        }
                     }
                 }
                 None => {
@@ -434,6 +440,7 @@ impl Engine<'_> {
             energy_num,
             checks: std::mem::take(&mut self.checks.global_checks),
             outcome,
+            read: self.trial.read.take(),
             report: std::mem::replace(&mut self.report, report),
             ms,
         }

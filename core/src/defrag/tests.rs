@@ -13,7 +13,7 @@ use crate::topology::Topology;
 const SHEET: u32 = 256;
 
 /// Leaves every vertex where it is.
-struct Keep;
+pub(super) struct Keep;
 
 impl LocalSolver for Keep {
     fn solve(&mut self, _: &mut LocalProblem) -> Result<SolveReport, SolveError> {
@@ -22,7 +22,7 @@ impl LocalSolver for Keep {
 }
 
 /// Ranks by matching error only, with no filters.
-struct ByError;
+pub(super) struct ByError;
 
 impl MergeScorer for ByError {
     fn score(&self, op: &OpFeatures) -> Score {
@@ -30,7 +30,7 @@ impl MergeScorer for ByError {
     }
 }
 
-fn model_with(positions: Vec<[f64; 3]>) -> Model {
+pub(super) fn model_with(positions: Vec<[f64; 3]>) -> Model {
     let mut m = Model { positions, ..Model::default() };
     m.sheets.push(Sheet { image: ImageSource::File("s.png".into()), size: Some((SHEET, SHEET)) });
     m.materials.push(Material {
@@ -42,7 +42,7 @@ fn model_with(positions: Vec<[f64; 3]>) -> Model {
     m
 }
 
-fn add_face(m: &mut Model, v: [u32; 3], texel: [[f64; 2]; 3]) {
+pub(super) fn add_face(m: &mut Model, v: [u32; 3], texel: [[f64; 2]; 3]) {
     let base = m.uvs.len() as u32;
     m.uvs.extend(texel.iter().map(|t| [t[0] / f64::from(SHEET), t[1] / f64::from(SHEET)]));
     m.faces.push(Face {
@@ -54,7 +54,7 @@ fn add_face(m: &mut Model, v: [u32; 3], texel: [[f64; 2]; 3]) {
 }
 
 /// A rigid map of the plane: rotation by `angle` then translation, at `scale` texels per unit.
-fn rigid(angle: f64, t: [f64; 2], scale: f64) -> impl Fn([f64; 3]) -> [f64; 2] {
+pub(super) fn rigid(angle: f64, t: [f64; 2], scale: f64) -> impl Fn([f64; 3]) -> [f64; 2] {
     let (c, s) = (angle.cos(), angle.sin());
     move |p| [scale * (c * p[0] - s * p[1]) + t[0], scale * (s * p[0] + c * p[1]) + t[1]]
 }
@@ -90,7 +90,7 @@ fn two_halves(
     quad_grid(n, |i, _, q| if i < n / 2 { left(q) } else { right(q) })
 }
 
-fn prepare(m: &Model) -> Topology {
+pub(super) fn prepare(m: &Model) -> Topology {
     Topology::build(m, &[Some((SHEET, SHEET))]).expect("valid fixture")
 }
 

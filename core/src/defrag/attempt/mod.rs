@@ -12,6 +12,7 @@ use super::commit::CommitRecord;
 use super::grid::tri_bbox;
 use super::ops::OpGeometry;
 use super::patch::{find, union};
+use super::reach::{EMPTY, ReadRegion, grow, parks, with_margin};
 use super::state::{Engine, NONE};
 use super::verdict::Verdict;
 use super::{RejectReason, ms};
@@ -78,6 +79,7 @@ impl Engine<'_> {
             self.opts.one_sided && self.ops[op as usize].failures == 0 && self.op_is_inter(op);
         let mut sides = if one_sided { &[true, false][..] } else { &[false][..] };
         self.trial.memo.begin(op);
+        self.trial.read = None;
         let (g, result) = loop {
             let t0 = Instant::now();
             let g = self.op_geometry(op);
@@ -118,7 +120,10 @@ impl Engine<'_> {
                 }
                 self.report.timings.commit_ms += ms(t);
             }
-            Err(_) => {
+            Err(r) => {
+                if parks(r) {
+                    self.trial.read = Some(self.read_region(&g));
+                }
                 let t = Instant::now();
                 self.rollback();
                 self.report.timings.rollback_ms += ms(t);
@@ -128,6 +133,34 @@ impl Engine<'_> {
         self.trial.memo.end(op, result.is_err(), |o| ops[o as usize].is_live());
         self.reset_scratch();
         (result.map(|_| g), record)
+    }
+
+    /// What the refused attempt in progress read (see `reach`): its optimization area as the
+    /// attempt left it and, the staying chart's part, as it was before, in the staying chart's
+    /// frame; the moving chart's part as it was before the attempt moved it, in its own frame.
+    /// Called before the rollback, while the undo logs still hold the layout before.
+    fn read_region(&self, g: &OpGeometry) -> ReadRegion {
+        let (mut stay_box, mut moved_box) = (EMPTY, EMPTY);
+        for &f in &self.area.opt_faces {
+            let f = f as usize;
+            let (now, before) = (self.tri(f), self.tri_before(f));
+            let moved = g.inter && self.t.face_chart[f] == g.b;
+            for k in 0..3 {
+                stay_box = grow(stay_box, now[k]);
+                if moved {
+                    moved_box = grow(moved_box, before[k]);
+                } else {
+                    stay_box = grow(stay_box, before[k]);
+                }
+            }
+        }
+        let cell = self.grid.cell();
+        ReadRegion {
+            stay: g.a,
+            moved: g.b,
+            stay_box: with_margin(stay_box, cell),
+            moved_box: with_margin(moved_box, cell),
+        }
     }
 
     /// Moves chart b by the fit, then fuses each group of paired vertices into its smallest

@@ -2,6 +2,7 @@
 //! attempt.
 
 use super::memo::SolveMemos;
+use crate::defrag::reach::{ReadRegion, WrittenRegion};
 use crate::topology::ChartId;
 
 /// The buffers and flags of the attempt in progress, and the memo of failed attempts' solves.
@@ -17,4 +18,9 @@ pub(crate) struct AttemptScratch {
     pub(in crate::defrag) hold: Option<ChartId>,
     /// The solves of failed attempts, for the same operations' next attempts.
     pub(super) memo: SolveMemos,
+    /// What the attempt just ended read, if it was refused for a reason that depends only on
+    /// that (see `reach`): the settling keeps it in the operation's table entry.
+    pub(in crate::defrag) read: Option<ReadRegion>,
+    /// What the last commit wrote, for deciding which failed operations it brings back.
+    pub(in crate::defrag) written: Option<WrittenRegion>,
 }

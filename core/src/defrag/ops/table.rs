@@ -2,6 +2,7 @@
 //! failures and its cached seam geometry. Plain data, below the engine state that holds it.
 
 use super::super::RejectReason;
+use super::super::reach::ReadRegion;
 use crate::plugin::Veto;
 use crate::topology::{ChartId, LinkId, OpKind, Topology};
 
@@ -12,7 +13,8 @@ pub(crate) enum OpState {
     Queued,
     /// Refused by the scorer; rescored when one of its charts changes.
     Vetoed(Veto),
-    /// Attempted and rolled back; back in the queue only after one of its charts changes.
+    /// Attempted and rolled back; back in the queue only after a commit into one of its charts
+    /// that can change the verdict (see `reach`), or in the sweep at the end of the queue.
     Failed(RejectReason),
     /// Accepted.
     Done,
@@ -34,6 +36,11 @@ pub(crate) struct EngineOp {
     pub island: bool,
     /// Its seam geometry as last computed for scoring (see `Engine::features`).
     pub geom: Option<CachedGeometry>,
+    /// What its last refused attempt read, when the refusal depends only on that (see `reach`).
+    pub read: Option<ReadRegion>,
+    /// Failed, and a commit into one of its charts has come since, none of them near what its
+    /// refusal read: it waits for one that is, or for the sweep at the end of the queue.
+    pub parked: bool,
 }
 
 /// The part of an operation's geometry that rigid motions of either chart leave unchanged: the
@@ -60,6 +67,8 @@ impl EngineOp {
             version: 0,
             island: false,
             geom: None,
+            read: None,
+            parked: false,
         }
     }
 
