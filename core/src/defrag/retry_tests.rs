@@ -75,7 +75,7 @@ fn chart_of(t: &Topology, i: u32, j: u32) -> ChartId {
 }
 
 /// The live operation between charts `x` and `y`.
-fn between(e: &state::Engine, x: ChartId, y: ChartId) -> u32 {
+pub(super) fn between(e: &state::Engine, x: ChartId, y: ChartId) -> u32 {
     (0..e.ops.len() as u32)
         .find(|&op| {
             e.ops[op as usize].is_live() && {

@@ -926,16 +926,7 @@ fn the_merged_chart_keeps_its_neighbours_while_its_operations_are_rescored() {
     let (left, right, below) = (chart_of(&t, 1, 1), chart_of(&t, 2, 1), chart_of(&t, 1, 0));
     assert!(left != right && left != below);
     let mut e = state::Engine::new(&mut t, MergeOptions::default());
-    let between = |e: &state::Engine, x, y| {
-        (0..e.ops.len() as u32)
-            .find(|&op| {
-                e.ops[op as usize].is_live() && {
-                    let c = e.op_charts(op);
-                    c == (x, y) || c == (y, x)
-                }
-            })
-            .expect("an operation joins the two charts")
-    };
+    let between = super::retry_tests::between;
     let mut queue = greedy::Queue::new();
     e.fill_queue(&ByError, &mut queue, None);
     let op = between(&e, left, right);
