@@ -40,6 +40,47 @@ pub struct RunContext {
     // Declared before the lock, so the staging folder goes before the lock is released.
     staging: Staging,
     _lock: OutputLock,
+    // Declared last, so the folders are removed once the staging folder and the lock are gone.
+    created: CreatedDirs,
+}
+
+/// The folders a run created (they did not exist before it), deepest first. Unless the run
+/// committed its output set, they are removed again when empty, so a refused or failed run
+/// leaves no empty folder behind.
+#[derive(Debug, Default)]
+struct CreatedDirs {
+    dirs: Vec<PathBuf>,
+    keep: bool,
+}
+
+impl CreatedDirs {
+    /// Creates folder `path` and its missing parents, remembering the ones it made.
+    fn create(&mut self, path: &Path) -> Result<(), PipelineError> {
+        let mut missing = Vec::new();
+        let mut folder = Some(path);
+        while let Some(f) = folder {
+            if f.as_os_str().is_empty() || f.exists() {
+                break;
+            }
+            missing.push(f.to_path_buf());
+            folder = f.parent();
+        }
+        super::create_dir(path)?;
+        self.dirs.extend(missing);
+        Ok(())
+    }
+}
+
+impl Drop for CreatedDirs {
+    fn drop(&mut self) {
+        if self.keep {
+            return;
+        }
+        for dir in &self.dirs {
+            // Only an empty folder goes: anything in it is not this run's to remove.
+            let _ = std::fs::remove_dir(dir);
+        }
+    }
 }
 
 fn usage(msg: String) -> PipelineError {
@@ -169,7 +210,8 @@ impl RunContext {
             protect.extend(model_files(model));
             check_against_inputs(&output, paths.report, &protect)?;
         }
-        let (out_dir, work_dir) = create_run_dirs(&output, paths.work_dir)?;
+        let mut created = CreatedDirs::default();
+        let (out_dir, work_dir) = create_run_dirs(&output, paths.work_dir, &mut created)?;
         let lock = OutputLock::acquire(&output)?;
         output_set::clean_stale(&output)?;
         let staging = Staging::create(&output)?;
@@ -182,6 +224,7 @@ impl RunContext {
             sheet_naming: model.map(SheetNaming::of_model).unwrap_or_default(),
             staging,
             _lock: lock,
+            created,
         })
     }
 
@@ -257,22 +300,24 @@ impl RunContext {
     }
 
     /// Moves the output set into place, the model last; returns the final paths.
-    pub fn commit(self) -> Result<Vec<PathBuf>, PipelineError> {
+    pub fn commit(mut self) -> Result<Vec<PathBuf>, PipelineError> {
         self.checkpoint()?;
+        self.created.keep = true;
         Ok(self.staging.commit(&self.protect)?)
     }
 }
 
 /// Creates the output's folder and the work folder of the temporary tile files (`work_dir`, or
 /// the output's folder when `None`), and returns both: the one set-up every writing run shares.
-pub(crate) fn create_run_dirs(
+fn create_run_dirs(
     output: &Path,
     work_dir: Option<&Path>,
+    created: &mut CreatedDirs,
 ) -> Result<(PathBuf, PathBuf), PipelineError> {
     let out_dir = parent_dir(output);
-    super::create_dir(&out_dir)?;
+    created.create(&out_dir)?;
     let work_dir = work_dir.map_or_else(|| out_dir.clone(), Path::to_path_buf);
-    super::create_dir(&work_dir)?;
+    created.create(&work_dir)?;
     Ok((out_dir, work_dir))
 }
 

@@ -91,8 +91,37 @@ fn removed_usemtl_keeps_every_uv_with_a_warning() {
     let strict = scanatlas(&["--strict", "defrag", "r/scan.obj", "-o", "s/o.obj"], dir.path());
     assert_fails_with(&strict, "--strict");
     assert!(stderr(&strict).contains("scanatlas: warning:"), "{}", stderr(&strict));
-    assert!(!dir.path().join("s/o.obj").exists());
-    assert!(!dir.path().join("s/o_0.png").exists());
+    assert!(!dir.path().join("s").exists(), "the refused run left its output folder");
+}
+
+/// A warning of the packing (here a chart larger than the fixed sheet size) is found late in the
+/// run: `--strict` still fails before the output set is committed, and leaves neither files nor
+/// the folders it created (`s/deep`), while a folder that existed before stays.
+#[test]
+fn strict_fails_on_a_packing_warning_and_leaves_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    synth(dir.path(), "r", 1000);
+    let run = |out: &str, strict: bool| {
+        let mut args = vec!["defrag", "r/scan.obj", "-o", out, "--sheet-size", "64", "-q"];
+        if strict {
+            args.insert(0, "--strict");
+        }
+        scanatlas(&args, dir.path())
+    };
+    let lenient = run("o/o.obj", false);
+    assert_ok(&lenient);
+    assert!(stderr(&lenient).contains("sheet-size-exceeded"), "{}", stderr(&lenient));
+    assert!(dir.path().join("o/o.obj").exists());
+
+    let strict = run("s/deep/o.obj", true);
+    assert_fails_with(&strict, "--strict");
+    assert!(stderr(&strict).contains("sheet-size-exceeded"), "{}", stderr(&strict));
+    assert!(!dir.path().join("s").exists(), "the refused run left its output folder");
+
+    std::fs::create_dir(dir.path().join("kept")).unwrap();
+    assert_fails_with(&run("kept/o.obj", true), "--strict");
+    let left: Vec<_> = std::fs::read_dir(dir.path().join("kept")).unwrap().collect();
+    assert!(left.is_empty(), "{left:?}");
 }
 
 /// Case 3, renamed material: `usemtl` names a material the MTL does not define.
