@@ -210,12 +210,7 @@ impl Context<'_> {
             let (lx, ly) = (t as u32 % TILE, t as u32 / TILE);
             let (i, j) = (rect.x0 + lx, rect.y0 + ly);
             let c = [f64::from(i) + 0.5, f64::from(dst_h) - f64::from(j) - 0.5];
-            let b = barycentric(f.dst, c);
-            let s = f.src;
-            let p = [
-                b[0] * s[0][0] + b[1] * s[1][0] + b[2] * s[2][0],
-                b[0] * s[0][1] + b[1] * s[1][1] + b[2] * s[2][1],
-            ];
+            let p = source_point(&f.src, barycentric(f.dst, c));
             let src = self.inputs[f.src_sheet as usize];
             bilinear(src, &self.convs[f.src_sheet as usize], p, &mut value);
             let out = &mut px[t * bpp..(t + 1) * bpp];
@@ -290,11 +285,7 @@ impl Context<'_> {
                 counts.copied += 1;
             }
             None => {
-                let s = f.src;
-                let p = [
-                    b[0] * s[0][0] + b[1] * s[1][0] + b[2] * s[2][0],
-                    b[0] * s[0][1] + b[1] * s[1][1] + b[2] * s[2][1],
-                ];
+                let p = source_point(&f.src, b);
                 bilinear(src, conv, p, &mut value);
                 store_pixel(out, self.format, &value);
                 counts.sampled += 1;
@@ -379,6 +370,15 @@ impl RingScratch {
             (t, k)
         })
     }
+}
+
+/// The input texel-space point with barycentrics `b` in source triangle `s`.
+#[inline]
+fn source_point(s: &[[f64; 2]; 3], b: [f64; 3]) -> [f64; 2] {
+    [
+        b[0] * s[0][0] + b[1] * s[1][0] + b[2] * s[2][0],
+        b[0] * s[0][1] + b[1] * s[1][1] + b[2] * s[2][1],
+    ]
 }
 
 /// Whether face `f`'s map from output to input, extended past its edges, stays within
