@@ -495,6 +495,11 @@ pub struct DefragArgs {
     /// [default: 1].
     #[arg(long, value_name = "R", help_heading = HEADING_PACKING)]
     pub split_rigid: Option<f64>,
+    /// A chart covering less than A texels² of input UV area, within one texel each way (a
+    /// floating fragment of the reconstruction), becomes point faces on one palette block with
+    /// the input's colour, instead of a chart of its own (0: keep every chart) [default: 0.01].
+    #[arg(long, value_name = "A", help_heading = HEADING_PACKING)]
+    pub speck_area: Option<f64>,
     /// Packer plugin (`horizon`, `skyline`) [default: horizon].
     #[arg(long, help_heading = HEADING_PLUGINS)]
     pub packer: Option<String>,

@@ -85,6 +85,10 @@ pub struct PackOptions {
     /// fraction by which the seam it opens lengthens the atlas's UV border (0: never). See the
     /// defrag pipeline's `rigid_split`.
     pub split_rigid_ratio: f64,
+    /// A chart whose faces cover less than this input UV area (texels²) and fit within one texel
+    /// each way is a speck: its faces become point faces of the palette, showing the input's
+    /// colour at its centroid, rather than a chart of its own (0: never).
+    pub speck_area: f64,
 }
 
 impl Default for PackOptions {
@@ -100,6 +104,7 @@ impl Default for PackOptions {
             rigid_tolerance: 1e-6,
             separate_texel_clashes: true,
             split_rigid_ratio: 1.0,
+            speck_area: 0.01,
         }
     }
 }

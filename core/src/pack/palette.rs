@@ -104,6 +104,10 @@ pub struct PaletteReport {
     pub point_faces: usize,
     /// Of those, faces whose input UVs span a segment rather than a point.
     pub segment_faces: usize,
+    /// Charts too small to be worth one (specks, see `PackOptions::speck_area`) mapped onto a
+    /// block as point faces, and their faces (counted in `point_faces` too).
+    pub speck_charts: usize,
+    pub speck_faces: usize,
     /// Blocks (distinct colour points) and their side in texels.
     pub blocks: usize,
     pub block_side: u32,

@@ -150,6 +150,42 @@ impl PackingCharts {
         (out, segments)
     }
 
+    /// Takes the specks out of their charts for the palette (see `pack::palette`): charts whose
+    /// faces cover less than `max_area` texels² of input UV area and fit, in the input, within
+    /// one texel each way. Such a chart is a fragment the reconstruction left floating (or a
+    /// sliver the merge could not join), and it shows one input colour, as a point face does:
+    /// all its faces are mapped onto one block painted with the input's colour at the speck's
+    /// centroid, instead of costing a chart of its own with its padding. Returns them in face
+    /// order with the number of charts they made.
+    pub fn take_specks(&mut self, topo: &Topology, max_area: f64) -> (Vec<PaletteFace>, usize) {
+        if max_area <= 0.0 {
+            return (Vec::new(), 0);
+        }
+        let tri = |f: usize| [0, 1, 2].map(|k| topo.orig_uv[3 * f + k]);
+        let mut charts = vec![SpeckTally::default(); self.n];
+        for (f, &c) in self.face_chart.iter().enumerate() {
+            if c != NONE {
+                charts[c as usize].add(tri(f), topo.face_sheet[f]);
+            }
+        }
+        let speck = |t: &SpeckTally| t.is_speck(max_area);
+        let mut out = Vec::new();
+        for (f, c) in self.face_chart.iter_mut().enumerate() {
+            if *c == NONE || !speck(&charts[*c as usize]) {
+                continue;
+            }
+            let centre = charts[*c as usize].centroid();
+            out.push(PaletteFace {
+                face: f as u32,
+                src_sheet: topo.face_sheet[f],
+                ends: [centre, centre],
+                along: [0.5; 3],
+            });
+            *c = NONE;
+        }
+        (out, charts.iter().filter(|t| speck(t)).count())
+    }
+
     /// The last resort for texel clashes the sub-texel moves could not separate: one face of
     /// every such pair (`both`: each face of every pair) becomes a chart of its own. Returns how
     /// many faces were detached.
@@ -231,5 +267,57 @@ pub(super) fn layout_input<'a>(
         face_area_3d,
         n_charts,
         input_sheet_sizes,
+    }
+}
+
+/// What [`PackingCharts::take_specks`] needs of a chart: its input UV area, moment, extent and
+/// sheet.
+#[derive(Clone, Copy, Debug)]
+struct SpeckTally {
+    area: f64,
+    moment: [f64; 2],
+    lo: [f64; 2],
+    hi: [f64; 2],
+    /// The input sheet of its faces; `NONE` before the first face, `NONE - 1` once they differ.
+    sheet: u32,
+}
+
+impl Default for SpeckTally {
+    fn default() -> Self {
+        Self {
+            area: 0.0,
+            moment: [0.0; 2],
+            lo: [f64::INFINITY; 2],
+            hi: [f64::NEG_INFINITY; 2],
+            sheet: NONE,
+        }
+    }
+}
+
+impl SpeckTally {
+    const MIXED: u32 = NONE - 1;
+
+    fn add(&mut self, t: [[f64; 2]; 3], sheet: u32) {
+        let a = 0.5 * crate::geometry::signed_area2(t).abs();
+        for k in 0..2 {
+            self.moment[k] += a * (t[0][k] + t[1][k] + t[2][k]) / 3.0;
+            self.lo[k] = t.iter().map(|p| p[k]).fold(self.lo[k], f64::min);
+            self.hi[k] = t.iter().map(|p| p[k]).fold(self.hi[k], f64::max);
+        }
+        self.area += a;
+        self.sheet = if self.sheet == NONE || self.sheet == sheet { sheet } else { Self::MIXED };
+    }
+
+    /// A chart with some area (one without any is made of point faces, which the palette takes
+    /// anyway) but less than `max_area`, within one texel each way, on one sheet.
+    fn is_speck(&self, max_area: f64) -> bool {
+        self.area >= crate::metrics::DEGEN_AREA_TEXELS
+            && self.area < max_area
+            && (0..2).all(|k| self.hi[k] - self.lo[k] <= 1.0)
+            && self.sheet != Self::MIXED
+    }
+
+    fn centroid(&self) -> [f64; 2] {
+        self.moment.map(|m| m / self.area)
     }
 }

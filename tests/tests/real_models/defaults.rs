@@ -37,11 +37,10 @@ const BUDGET: f64 = 0.025;
 /// The goal for the preserved faces' PSNR is 60 dB, which no model meets yet (see
 /// `docs/FIDELITY.md` for why).
 const FLOORS: [Floors; 4] = [
-    // The reference's figures, but for the chart count.
+    // The reference's figures.
     Floors {
         rel: "meshroom-esp32cam/texturedMesh.obj",
-        // FIXME: the goal is the reference's 79; this is 79 + 10%.
-        max_charts: 86,
+        max_charts: 79,
         min_solidity: 0.124,
         min_preserved_area: 0.083,
         min_psnr: 41.2,
@@ -90,8 +89,9 @@ const FLOORS: [Floors; 4] = [
     },
 ];
 
-/// Each figure of `v` against `floor`, as failure messages.
-fn shortfalls(floor: &Floors, v: &serde_json::Value) -> Vec<String> {
+/// Each figure of `v` against `floor`, as failure messages; `specks` is how many faces the run
+/// made point faces on purpose (`pack.palette.speck_faces`), the only new degenerate faces allowed.
+fn shortfalls(floor: &Floors, v: &serde_json::Value, specks: usize) -> Vec<String> {
     let (input, output, c) = (&v["input"], &v["output"], &v["comparison"]);
     let int = |x: &serde_json::Value| x.as_i64().unwrap_or_else(|| panic!("not an integer: {x}"));
     let real = |x: &serde_json::Value| x.as_f64().unwrap_or_else(|| panic!("not a number: {x}"));
@@ -109,7 +109,11 @@ fn shortfalls(floor: &Floors, v: &serde_json::Value) -> Vec<String> {
     );
     let flips = int(&c["new_flipped_faces"]);
     check(flips <= floor.max_new_flips, format!("{flips} new flipped faces"));
-    check(int(&c["new_degenerate_faces"]) == 0, format!("new degenerate faces: {c}"));
+    let degenerate = int(&c["new_degenerate_faces"]);
+    check(
+        degenerate <= specks as i64,
+        format!("{degenerate} new degenerate faces, {specks} specks"),
+    );
     let pairs = int(&c["overlap"]["new_overlap_face_pairs"]);
     check(pairs == 0, format!("{pairs} new overlapping face pairs"));
     check(charts < int(&input["charts_edge_with_area"]), format!("no chart merged ({charts})"));
@@ -149,8 +153,9 @@ fn default_defrag_meets_the_reference_figures_with_colour() {
         let ext = input.extension().and_then(|e| e.to_str()).unwrap_or("obj");
         let output = dir.path().join(format!("default{i}.{ext}"));
         let t = Instant::now();
-        pipeline::defrag::defrag(&input, &output, &reg, &cfg)
+        let report = pipeline::defrag::defrag(&input, &output, &reg, &cfg)
             .unwrap_or_else(|e| panic!("{}: {e}", floor.rel));
+        let specks = report.pack.as_ref().map_or(0, |p| p.palette.speck_faces);
         let run_s = t.elapsed().as_secs_f64();
         let v = evaluator_comparison(&input, &output);
         let c = &v["comparison"];
@@ -170,7 +175,7 @@ fn default_defrag_meets_the_reference_figures_with_colour() {
             c["new_flipped_faces"],
             c["overlap"]["new_overlap_face_pairs"],
         );
-        failures.extend(shortfalls(floor, &v));
+        failures.extend(shortfalls(floor, &v, specks));
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

@@ -17,7 +17,7 @@ use super::UsageError;
 use crate::cli::{DefragArgs, TextureFormatArg, parse_sheet_size};
 
 /// The top-level keys a config file may hold (besides the plugin tables).
-pub const TOP_LEVEL_KEYS: [&str; 30] = [
+pub const TOP_LEVEL_KEYS: [&str; 31] = [
     "matching-tolerance",
     "boundary-tolerance",
     "local-distortion",
@@ -32,6 +32,7 @@ pub const TOP_LEVEL_KEYS: [&str; 30] = [
     "no-untangle",
     "no-clash-separation",
     "split-rigid",
+    "speck-area",
     "no-solve-repair",
     "no-one-sided",
     "energy-ration",
@@ -280,6 +281,10 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
     if !(split_rigid_ratio.is_finite() && split_rigid_ratio >= 0.0) {
         return Err(usage(format!("--split-rigid must be 0 or more, got {split_rigid_ratio}")));
     }
+    let speck_area = pick(&file, args.speck_area, "speck-area", PackOptions::default().speck_area)?;
+    if !(speck_area.is_finite() && speck_area >= 0.0) {
+        return Err(usage(format!("--speck-area must be 0 or more, got {speck_area}")));
+    }
     let pack = PackOptions {
         padding,
         max_sheet_size,
@@ -294,6 +299,7 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
         )?,
         separate_texel_clashes: !(args.no_clash_separation || file.flag("no-clash-separation")?),
         split_rigid_ratio,
+        speck_area,
         ..PackOptions::default()
     };
     check_sheet_shape(&pack).map_err(usage)?;

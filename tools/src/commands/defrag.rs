@@ -157,6 +157,14 @@ fn print_summary(report: &DefragReport, quiet: bool) {
             report.input_stats.atlas_solidity.unwrap_or(0.0),
             report.output_stats.atlas_solidity.unwrap_or(0.0)
         );
+        if p.palette.speck_charts > 0 {
+            eprintln!(
+                "  {} specks (charts under {} texels² of UV area) became point faces: {} faces",
+                p.palette.speck_charts,
+                report.pack_options.map_or(0.0, |o| o.speck_area),
+                p.palette.speck_faces
+            );
+        }
     }
     if report.work_dir_peak_bytes > 0 {
         eprintln!(

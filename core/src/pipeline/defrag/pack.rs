@@ -95,7 +95,11 @@ pub(super) fn pack_stage(
 ) -> Result<(PackedLayout, Palette, Option<UntangleReport>), PipelineError> {
     let sizes = &loaded.input_sheet_sizes;
     let t = Instant::now();
-    let (palette_faces, segments) = charts.take_palette_faces(topo);
+    let (mut palette_faces, segments) = charts.take_palette_faces(topo);
+    let (specks, speck_charts) = charts.take_specks(topo, cfg.pack.speck_area);
+    let speck_faces = specks.len();
+    palette_faces.extend(specks);
+    palette_faces.sort_unstable_by_key(|p| p.face);
     let palette_faces_ms = ms(t);
     let t = Instant::now();
     let rigid_split = if cfg.pack.split_rigid_ratio > 0.0 {
@@ -143,6 +147,7 @@ pub(super) fn pack_stage(
     let palette =
         place_palette_blocks(topo, charts, &mut packed, &palette_faces, segments, space, &cfg.pack);
     let r = &mut packed.report;
+    (r.palette.speck_charts, r.palette.speck_faces) = (speck_charts, speck_faces);
     (r.palette_faces_ms, r.split_rigid_ms, r.untangle_ms) =
         (palette_faces_ms, split_rigid_ms, untangle_ms);
     (r.detach_ms, r.palette_ms) = (detach_ms, ms(t));

@@ -7,6 +7,7 @@
 
 mod budget;
 mod padding;
+mod specks;
 mod texels;
 
 use std::collections::{HashMap, HashSet};
