@@ -460,7 +460,6 @@ fn every_map_of_a_material_follows_the_atlas_on_real_exports() {
         let cfg = pipeline::defrag::DefragConfig::default();
         let report = pipeline::defrag::defrag(&input, &output, &reg, &cfg)
             .unwrap_or_else(|e| panic!("{rel}: {e}"));
-        let specks = specks(&report);
         let doc = gltf_json(&output);
         let original = &gltf_json(&input)["materials"][0];
         let materials = doc["materials"].as_array().unwrap();
