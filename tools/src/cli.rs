@@ -349,6 +349,10 @@ pub struct SynthArgs {
     /// Random seed; the same seed gives the same bytes.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Floating specks to add: tiny triangles of their own hovering over the surface, whose
+    /// charts cover a small fraction of a texel, as reconstructions leave them.
+    #[arg(long, default_value_t = 0)]
+    pub specks: u32,
     /// Model file format.
     #[arg(long, value_enum, default_value = "obj")]
     pub format: ModelFormatArg,

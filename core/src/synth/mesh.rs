@@ -29,6 +29,40 @@ mod salt {
     pub const JITTER: u64 = 0x11;
     pub const DIAGONAL: u64 = 0x22;
     pub const SHAPE: u64 = 0x33;
+    pub const SPECKS: u64 = 0x44;
+}
+
+/// A speck's size against the face it copies: small enough that its chart covers a small
+/// fraction of a texel at any density `synth` makes.
+const SPECK_SCALE: f64 = 0.005;
+
+/// How high a speck hovers above its face, in the face's mean edge lengths.
+const SPECK_LIFT: f64 = 0.3;
+
+/// Appends `n` specks to `mesh`: each a copy of a surface face picked at random, shrunk by
+/// [`SPECK_SCALE`] about its centroid and lifted along its normal, on three new vertices, so it is
+/// a component of its own facing the same way as the surface under it.
+pub fn add_specks(mesh: &mut Mesh, n: u32, seed: u64) {
+    let surface = mesh.tris.len();
+    if surface == 0 {
+        return;
+    }
+    let mut rng = crate::rng::SplitMix64::new(seed ^ salt::SPECKS);
+    for _ in 0..n {
+        let tri = mesh.tris[rng.below(surface)];
+        let p = tri.map(|v| mesh.positions[v as usize]);
+        let (normal, _) = tri_normal(p);
+        let centre: [f64; 3] = std::array::from_fn(|a| (p[0][a] + p[1][a] + p[2][a]) / 3.0);
+        let edge = |i: usize, j: usize| norm(sub(p[i], p[j]));
+        let lift = SPECK_LIFT * (edge(0, 1) + edge(1, 2) + edge(2, 0)) / 3.0;
+        let first = mesh.positions.len() as u32;
+        for q in p {
+            mesh.positions.push(std::array::from_fn(|a| {
+                centre[a] + SPECK_SCALE * (q[a] - centre[a]) + lift * normal[a]
+            }));
+        }
+        mesh.tris.push([first, first + 1, first + 2]);
+    }
 }
 
 /// Builds the mesh of `shape` with about `faces` triangles.

@@ -105,6 +105,10 @@ pub struct SynthParams {
     /// Gutter dilation radius in texels (0 to 64); at most `padding / 2` keeps neighbouring
     /// charts' gutters apart.
     pub gutter: u32,
+    /// Floating specks to add (0 to 100000): tiny triangles of their own, each a shrunken copy of
+    /// a surface face hovering above it, as reconstructions leave them; their charts cover a
+    /// small fraction of a texel.
+    pub specks: u32,
 }
 
 impl Default for SynthParams {
@@ -118,6 +122,7 @@ impl Default for SynthParams {
             seed: 1,
             padding: 4,
             gutter: 2,
+            specks: 0,
         }
     }
 }
@@ -147,6 +152,7 @@ impl SynthParams {
             (2..=64).contains(&self.padding),
             format!("padding = {} (allowed 2 to 64)", self.padding),
         )?;
+        check(self.specks <= 100_000, format!("specks = {} (allowed 0 to 100000)", self.specks))?;
         check(
             self.padding * 4 <= self.sheet_size,
             format!("padding = {} is too wide for {} pixel sheets", self.padding, self.sheet_size),
@@ -249,7 +255,8 @@ pub fn generate(params: &SynthParams, work_dir: &Path) -> Result<SynthOutput, Sy
     let seed = params.seed;
     let (size, pad) = (params.sheet_size, params.padding);
 
-    let m = mesh::build(params.shape, params.faces, seed);
+    let mut m = mesh::build(params.shape, params.faces, seed);
+    mesh::add_specks(&mut m, params.specks, seed);
     let adj = mesh::face_adjacency(&m.tris, m.positions.len());
     let t_mesh = Instant::now();
 

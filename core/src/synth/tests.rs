@@ -250,3 +250,27 @@ fn parameters_are_checked_and_shapes_have_kebab_case_names() {
     let p: SynthParams = serde_json::from_str(r#"{"shape":"torus","faces":5000}"#).unwrap();
     assert_eq!((p.shape, p.faces, p.cameras), (Shape::Torus, 5000, SynthParams::default().cameras));
 }
+
+#[test]
+fn specks_are_tiny_components_of_their_own_after_the_surface() {
+    let p = SynthParams { specks: 25, ..params(Shape::Blob, 3000, 8, 5) };
+    let (plain, _d0) = run(&SynthParams { specks: 0, ..p.clone() });
+    let (out, _d1) = run(&p);
+    let (m, surface) = (&out.model, plain.model.faces.len());
+    assert_eq!(m.faces.len(), surface + 25, "one face per speck, after the surface");
+    // Each speck's three corners are vertices no other face uses.
+    let mut uses = vec![0u32; m.positions.len()];
+    for f in m.face_ids() {
+        for v in m.faces[f.idx()].v {
+            uses[v.idx()] += 1;
+        }
+    }
+    for f in m.face_ids().skip(surface) {
+        let corners = m.faces[f.idx()].v;
+        assert!(corners.iter().all(|v| uses[v.idx()] == 1), "speck {f:?} shares a vertex");
+        let size = p.sheet_size as f64;
+        let uv = m.face_uvs(f).unwrap().map(|q| [q[0] * size, q[1] * size]);
+        let area = 0.5 * crate::geometry::signed_area2(uv).abs();
+        assert!(area > 0.0 && area < 0.01, "speck {f:?} covers {area} texels²");
+    }
+}

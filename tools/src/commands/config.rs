@@ -283,7 +283,9 @@ pub fn defrag_config(args: &DefragArgs, registry: &Registry) -> Result<DefragCon
     }
     let speck_area = pick(&file, args.speck_area, "speck-area", PackOptions::default().speck_area)?;
     if !(speck_area.is_finite() && speck_area >= 0.0) {
-        return Err(usage(format!("--speck-area must be a finite number, 0 or more, got {speck_area}")));
+        return Err(usage(format!(
+            "--speck-area must be a finite number, 0 or more, got {speck_area}"
+        )));
     }
     let pack = PackOptions {
         padding,

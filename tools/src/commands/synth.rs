@@ -29,6 +29,7 @@ pub fn run(args: &SynthArgs, quiet: bool) -> Result<()> {
         sheet_size: args.sheet_size,
         seed: args.seed,
         sheets: args.sheets,
+        specks: args.specks,
         ..SynthParams::default()
     };
     // Bad parameters are bad usage (exit status 2), found before anything is written.
