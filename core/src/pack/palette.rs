@@ -21,6 +21,10 @@
 //! needs a block that fills one whole. Blocks keep the padding away from every chart, like two
 //! charts do; they may touch each other, since nothing reads across a block's edge.
 //!
+//! Specks (charts smaller than a hundredth of a texel, see `PackOptions::speck_area`) come here
+//! too, as point faces at their centroid: they show one colour as well, and a chart of their own
+//! would cost its padding for nothing a renderer can show.
+//!
 //! Blocks go first into free cells inside the packed sheets (in sheet, row, column order), then
 //! into columns added on the right of the last sheet (which moves no existing texel), then, past
 //! the sheet size limit, onto new sheets of their own.
