@@ -1,12 +1,14 @@
 //! The `horizon` packer (the paper's upper-and-inner-horizon packer on exact footprints) next to
 //! the `skyline` packer (bottom-left skyline on bounding boxes) on 10,000 mixed chart footprints
-//! (99 % up to 60 cells a side, 1 % up to 600) on 8192² sheets (charts per second).
+//! (99 % up to 60 cells a side, 1 % up to 600) on 8192² sheets (charts per second); and `horizon`
+//! alone on 60 charts of a small scan on a 4096² sheet, where it also tries seeded shuffled
+//! orders.
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
-use scanatlas_benches::{density, filled, mixed_charts, registry};
+use scanatlas_benches::{density, filled, mixed_charts, random_items, registry};
 use scanatlas_core::plugin::{Params, check_packing};
 
 const CHARTS: usize = 10_000;
@@ -41,5 +43,22 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// A small scan's atlas: few enough charts that the shuffled orders run.
+fn bench_few(c: &mut Criterion) {
+    let r = registry();
+    let mut items = random_items(21, 55, 120);
+    items.extend(random_items(22, 5, 900));
+    let mut g = c.benchmark_group("pack_60_charts");
+    g.sample_size(20);
+    g.measurement_time(Duration::from_secs(20));
+    let packer = r.packer("horizon", &Params::new()).unwrap();
+    let out = packer.pack(&items, (4096, 4096)).unwrap();
+    check_packing(&items, (4096, 4096), &out).unwrap();
+    g.bench_function("horizon", |b| {
+        b.iter(|| black_box(packer.pack(black_box(&items), (4096, 4096))))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench, bench_few);
 criterion_main!(benches);

@@ -12,7 +12,7 @@ use scanatlas_core::synth::{self, Shape, SynthParams};
 use scanatlas_core::texture::encode::{EncodeOptions, write_image};
 use scanatlas_core::topology::Topology;
 
-pub use scanatlas_plugins::packers::fixtures::{density, filled, mixed_charts};
+pub use scanatlas_plugins::packers::fixtures::{density, filled, mixed_charts, random_items};
 
 /// The built-in plugins, registered by name.
 pub fn registry() -> Registry {

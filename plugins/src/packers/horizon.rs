@@ -17,6 +17,7 @@ use scanatlas_core::plugin::{
 };
 
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::{SplitMix64, nest, used_area};
 
@@ -530,18 +531,25 @@ impl HorizonPacker {
     }
 
     /// One greedy pass over the items in `order` (oversized items excluded); returns the number
-    /// of sheets used.
+    /// of sheets used, or `None` when `bound` (see [`ScoreBound`]) shows early that the pass
+    /// cannot come out denser than a packing already made.
+    #[allow(clippy::too_many_arguments)]
     fn trial(
         &self,
         pass: Pass,
+        items: &[PackItem],
         prepared: &[Vec<Profile>],
         areas: &[u64],
         order: &[u32],
         max_sheet: (u32, u32),
         placements: &mut [Placement],
-    ) -> Result<usize, PackerError> {
+        bound: Option<&ScoreBound>,
+    ) -> Result<Option<usize>, PackerError> {
         let mut sheets: Vec<Sheet> = Vec::new();
         let mut remaining: u64 = order.iter().map(|&i| areas[i as usize]).sum();
+        // The extent of each sheet's placed items and the sum of their areas: `used_area` so far.
+        let mut extents: Vec<(u32, u32)> = Vec::new();
+        let mut used = 0u64;
         for &item in order {
             let profs = &prepared[item as usize];
             let (s, (turn, x, y)) =
@@ -550,8 +558,19 @@ impl HorizonPacker {
                 )?;
             placements[item as usize] = Placement { sheet: s as u32, quarter_turns: turn, x, y };
             remaining -= areas[item as usize];
+            if let Some(bound) = bound {
+                extents.resize(sheets.len(), (0, 0));
+                let (w, h) = items[item as usize].footprint.rotated_dims(turn);
+                let e = &mut extents[s];
+                used -= u64::from(e.0) * u64::from(e.1);
+                *e = (e.0.max(x + w), e.1.max(y + h));
+                used += u64::from(e.0) * u64::from(e.1);
+                if bound.beaten(sheets.len(), used) {
+                    return Ok(None);
+                }
+            }
         }
-        Ok(sheets.len())
+        Ok(Some(sheets.len()))
     }
 
     /// First fit over the open sheets, the last one growing by 10% steps (as the reference grows
@@ -607,8 +626,52 @@ impl HorizonPacker {
     }
 }
 
+/// The best score `(sheets, used area)` of the packings made so far, shared by parallel trials
+/// so that a trial whose partial score already exceeds it stops: a trial's score only grows as it
+/// places items, so such a trial could neither win nor tie. Only strictly worse trials stop,
+/// whatever the timing, so the packing kept (the first of the densest) is the same as without the
+/// bound. Scores too large to pack into one word neither stop a trial nor lower the bound.
+struct ScoreBound(AtomicU64);
+
+impl ScoreBound {
+    const AREA_BITS: u32 = 44;
+
+    fn key((sheets, area): (usize, u64)) -> Option<u64> {
+        let sheets = u64::try_from(sheets).ok()?;
+        (sheets < 1 << (64 - Self::AREA_BITS) && area < 1 << Self::AREA_BITS)
+            .then_some(sheets << Self::AREA_BITS | area)
+    }
+
+    fn new(score: (usize, u64)) -> Self {
+        Self(AtomicU64::new(Self::key(score).unwrap_or(u64::MAX)))
+    }
+
+    fn lower(&self, score: (usize, u64)) {
+        if let Some(k) = Self::key(score) {
+            self.0.fetch_min(k, Ordering::Relaxed);
+        }
+    }
+
+    fn beaten(&self, sheets: usize, used: u64) -> bool {
+        Self::key((sheets, used)).is_some_and(|k| k > self.0.load(Ordering::Relaxed))
+    }
+}
+
 impl Packer for HorizonPacker {
     fn pack(&self, items: &[PackItem], max_sheet: (u32, u32)) -> Result<PackOutput, PackerError> {
+        self.pack_bounded(items, max_sheet, true)
+    }
+}
+
+impl HorizonPacker {
+    /// The packing; `prune` lets the shuffled trials stop once they cannot win (see
+    /// [`ScoreBound`]), which changes nothing but the time taken.
+    fn pack_bounded(
+        &self,
+        items: &[PackItem],
+        max_sheet: (u32, u32),
+        prune: bool,
+    ) -> Result<PackOutput, PackerError> {
         if max_sheet.0 == 0 || max_sheet.1 == 0 {
             return Err(PackerError::EmptySheet(max_sheet.0, max_sheet.1));
         }
@@ -645,8 +708,18 @@ impl Packer for HorizonPacker {
             .par_iter()
             .map(|&pass| {
                 let mut placements = vec![blank; n];
-                let sheets =
-                    self.trial(pass, &prepared, &areas, &order, max_sheet, &mut placements)?;
+                let sheets = self
+                    .trial(
+                        pass,
+                        items,
+                        &prepared,
+                        &areas,
+                        &order,
+                        max_sheet,
+                        &mut placements,
+                        None,
+                    )?
+                    .ok_or_else(|| PackerError::Failed("an unbounded pass stopped".into()))?;
                 Ok((pass, placements, sheets))
             })
             .collect::<Result<_, PackerError>>()?;
@@ -672,18 +745,24 @@ impl Packer for HorizonPacker {
                     trial.clone()
                 })
                 .collect();
+            let bound = ScoreBound::new(score(&best, best_sheets));
             let tried = orders
                 .par_iter()
                 .enumerate()
                 .map(|(t, o)| {
                     let pass = Pass { start: pass.start, fit: fits[t % fits.len()] };
                     let mut cand = vec![blank; n];
-                    let sheets = self.trial(pass, &prepared, &areas, o, max_sheet, &mut cand)?;
-                    Ok((score(&cand, sheets), cand, sheets))
+                    let b = prune.then_some(&bound);
+                    let made =
+                        self.trial(pass, items, &prepared, &areas, o, max_sheet, &mut cand, b)?;
+                    Ok(made.map(|sheets| {
+                        bound.lower(score(&cand, sheets));
+                        (score(&cand, sheets), cand, sheets)
+                    }))
                 })
                 .collect::<Result<Vec<_>, PackerError>>()?;
             let mut best_score = score(&best, best_sheets);
-            for (s, cand, sheets) in tried {
+            for (s, cand, sheets) in tried.into_iter().flatten() {
                 if s < best_score {
                     best_score = s;
                     best = cand;
@@ -810,5 +889,34 @@ mod tests {
         let p = bar();
         // Only columns 4..7 have a gap tall enough: the bar rests on their floor at 4.
         assert_eq!(s.best_inner(&p), Some((0, 4, 4)));
+    }
+
+    #[test]
+    fn the_score_bound_stops_only_trials_that_cannot_win_or_tie() {
+        let b = ScoreBound::new((2, 500));
+        assert!(!b.beaten(2, 500), "a tie goes on: the first of equals may win");
+        assert!(b.beaten(2, 501) && b.beaten(3, 0) && !b.beaten(1, 1 << 40));
+        b.lower((1, 900));
+        assert!(b.beaten(2, 0) && !b.beaten(1, 900) && b.beaten(1, 901));
+        // Scores too large to pack into a word never stop a trial.
+        assert!(!b.beaten(1, 1 << 50) && !b.beaten(usize::MAX, 0));
+        b.lower((1, 1 << 50));
+        assert!(!b.beaten(1, 900));
+    }
+
+    #[test]
+    fn pruned_shuffles_pack_exactly_as_unpruned_ones() {
+        let packer = HorizonPacker::default();
+        let mut multi_sheet = false;
+        for (seed, n, side, sheet) in
+            [(1, 12, 40, 64), (2, 30, 30, 96), (3, 60, 24, 128), (4, 90, 20, 160), (5, 45, 50, 200)]
+        {
+            let items = super::super::fixtures::random_items(seed, n, side);
+            let with = packer.pack_bounded(&items, (sheet, sheet), true).unwrap();
+            let without = packer.pack_bounded(&items, (sheet, sheet), false).unwrap();
+            assert_eq!(with, without, "seed {seed}: {n} items on {sheet}² sheets");
+            multi_sheet |= with.sheets.len() > 1;
+        }
+        assert!(multi_sheet, "some instance needs more than one sheet");
     }
 }
