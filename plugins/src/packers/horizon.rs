@@ -8,7 +8,9 @@
 //!
 //! Speed: the column profiles of every allowed turn are computed once per item, before any trial;
 //! a trial only reads them. The scan over positions stops early on the column that last proved a
-//! position worse than the best so far, which skips most positions after one or two reads.
+//! position worse than the best so far, which skips most positions after one or two reads. The
+//! parallel passes and shuffled trials share the best score made so far, and a trial stops as
+//! soon as its partial score is worse (see [`ScoreBound`]): the packing kept is the same.
 
 use scanatlas_core::plugin::{
     PackItem, PackOutput, Packer, PackerError, ParamInfo, ParamValue, Params, Placement,
@@ -704,27 +706,32 @@ impl HorizonPacker {
             .iter()
             .flat_map(|&start| fits.iter().map(move |&fit| Pass { start, fit }))
             .collect();
-        let passes: Vec<(Pass, Vec<Placement>, usize)> = plan
+        // The passes share a bound too: the slower ones stop once a finished one is denser.
+        let bound = ScoreBound::new((usize::MAX, u64::MAX));
+        let passes: Vec<Option<(Pass, Vec<Placement>, usize)>> = plan
             .par_iter()
             .map(|&pass| {
                 let mut placements = vec![blank; n];
-                let sheets = self
-                    .trial(
-                        pass,
-                        items,
-                        &prepared,
-                        &areas,
-                        &order,
-                        max_sheet,
-                        &mut placements,
-                        None,
-                    )?
-                    .ok_or_else(|| PackerError::Failed("an unbounded pass stopped".into()))?;
-                Ok((pass, placements, sheets))
+                let b = prune.then_some(&bound);
+                let made = self.trial(
+                    pass,
+                    items,
+                    &prepared,
+                    &areas,
+                    &order,
+                    max_sheet,
+                    &mut placements,
+                    b,
+                )?;
+                Ok(made.map(|sheets| {
+                    bound.lower(score(&placements, sheets));
+                    (pass, placements, sheets)
+                }))
             })
             .collect::<Result<_, PackerError>>()?;
         let (pass, mut best, mut best_sheets) = passes
             .into_iter()
+            .flatten()
             .reduce(|a, b| if score(&b.1, b.2) < score(&a.1, a.2) { b } else { a })
             .ok_or_else(|| PackerError::Failed("no packing pass ran".into()))?;
         let few = order.len() > 1 && order.len() < self.shuffle_below;
@@ -745,7 +752,6 @@ impl HorizonPacker {
                     trial.clone()
                 })
                 .collect();
-            let bound = ScoreBound::new(score(&best, best_sheets));
             let tried = orders
                 .par_iter()
                 .enumerate()
