@@ -356,8 +356,9 @@ impl HorizonPacker {
                     let made =
                         self.trial(pass, items, &prepared, &areas, o, max_sheet, &mut cand, b)?;
                     Ok(made.map(|sheets| {
-                        bound.lower(score(&cand, sheets));
-                        (score(&cand, sheets), cand, sheets)
+                        let s = score(&cand, sheets);
+                        bound.lower(s);
+                        (s, cand, sheets)
                     }))
                 })
                 .collect::<Result<Vec<_>, PackerError>>()?;
