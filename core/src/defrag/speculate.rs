@@ -83,6 +83,9 @@ enum ToShadow {
     /// An operation to judge (its table entry as the master has it, its queue key, its charts,
     /// and the master's commit count when it was asked for).
     Judge(Box<Request>),
+    /// A request the master settles itself after all (see `Pending::forget`): judging it now
+    /// would be work thrown away.
+    Forget { op: u32, version: u32 },
 }
 
 /// An operation the shadow is asked to judge.
@@ -269,6 +272,7 @@ impl Engine<'_> {
                     }
                 }
                 None => {
+                    s.forget(op, version);
                     // The master is away for a whole attempt: give the shadow enough to judge
                     // meanwhile (see `OWN_ATTEMPT_IN_FLIGHT`).
                     self.dispatch_up_to(&mut queue, charts, &mut s, OWN_ATTEMPT_IN_FLIGHT);
@@ -489,6 +493,22 @@ impl Pending {
         }
     }
 
+    /// Withdraws the request for `op` at `version`, if one is pending: the master attempts it
+    /// itself. Its shadow would otherwise judge it next (it is the most urgent request there),
+    /// alongside the master's own attempt, and throw the judgement away. A shadow that has
+    /// already started it sends its judgement back anyway, which is then never taken.
+    fn forget(&mut self, op: u32, version: u32) {
+        let Some(i) = self.in_flight.iter().position(|f| (f.op, f.version) == (op, version)) else {
+            return;
+        };
+        let f = self.in_flight.swap_remove(i);
+        if let Some(tx) = &self.links.to_shadows[f.shadow]
+            && tx.send(ToShadow::Forget { op, version }).is_err()
+        {
+            self.links.to_shadows[f.shadow] = None;
+        }
+    }
+
     fn receive(&mut self, msg: FromShadow) {
         match msg {
             FromShadow::Judged(j) => {
@@ -582,5 +602,6 @@ fn take(
             commits.push((r.g.a, r.g.b));
         }
         ToShadow::Judge(r) => pending.push(*r),
+        ToShadow::Forget { op, version } => pending.retain(|r| (r.op, r.version) != (op, version)),
     }
 }
