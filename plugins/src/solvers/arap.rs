@@ -22,6 +22,7 @@
 
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 
+use super::anderson::{self, Anderson};
 use super::workspace::Workspace;
 use faer::sparse::linalg::cholesky::{LdltRef, LltRef, SymbolicCholesky};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
@@ -32,7 +33,7 @@ use scanatlas_core::geometry::{
 };
 use scanatlas_core::plugin::{
     LocalProblem, LocalSolver, ParamInfo, ParamValue, Params, PluginError, PluginInfo, PluginKind,
-    Registry, SolveError, SolveReport,
+    Registry, SolveError, SolveReport, get_u64,
 };
 
 /// The registered name of this solver.
@@ -73,13 +74,18 @@ pub struct ArapParams {
     pub max_iterations: u32,
     /// Stop when the relative energy decrease of an iteration falls below this.
     pub tolerance: f64,
+    /// How many past iterates Anderson acceleration combines (0: plain local/global steps).
+    pub anderson: u32,
 }
 
 impl Default for ArapParams {
     fn default() -> Self {
-        Self { max_iterations: 100, tolerance: 1e-8 }
+        Self { max_iterations: 100, tolerance: 1e-8, anderson: DEFAULT_ANDERSON }
     }
 }
+
+/// The default history depth of the Anderson acceleration.
+pub const DEFAULT_ANDERSON: u32 = 5;
 
 /// The description shown by `scanatlas plugins`, with the parameters and their defaults.
 pub fn info() -> PluginInfo {
@@ -99,6 +105,11 @@ pub fn info() -> PluginInfo {
                 default: ParamValue::Float(1e-8),
                 help: "stop when an iteration lowers the energy by less than this fraction",
             },
+            ParamInfo {
+                name: "anderson",
+                default: ParamValue::Int(DEFAULT_ANDERSON as i64),
+                help: "past iterates combined by Anderson acceleration (0 to 16; 0: plain steps)",
+            },
         ],
     }
 }
@@ -107,7 +118,8 @@ impl ArapParams {
     /// Reads and checks the parameters given by the user, with the declared defaults.
     pub fn from_params(params: &Params) -> Result<Self, PluginError> {
         let (max_iterations, tolerance) = super::iteration_params(params, &info(), 1_000_000)?;
-        Ok(Self { max_iterations, tolerance })
+        let depth = get_u64(params, &info(), "anderson", 0..=anderson::MAX_DEPTH as u64)?;
+        Ok(Self { max_iterations, tolerance, anderson: depth as u32 })
     }
 }
 
@@ -201,6 +213,13 @@ pub struct ArapSolver {
     /// Right-hand side contributions of the fixed vertices (constant); the full right-hand side,
     /// column-major `n × 2` (u then v), is the workspace's.
     rhs_fixed: Vec<f64>,
+    /// The acceleration's history, and its views of an iterate and of the next one (the free
+    /// vertices' u and v, interleaved).
+    anderson: Anderson,
+    accel_x: Vec<f64>,
+    accel_g: Vec<f64>,
+    /// The plain next iterate's free vertices while an accelerated one is on trial.
+    plain: Vec<[f64; 2]>,
 }
 
 impl std::fmt::Debug for ArapSolver {
@@ -621,6 +640,44 @@ impl ArapSolver {
         true
     }
 
+    /// The local step at `self.ws.current` (see [`Self::local_step`]).
+    fn evaluate_current(&mut self, targets: &[Tri2]) -> Evaluation {
+        let current = std::mem::take(&mut self.ws.current);
+        let eval = self.local_step(&current, targets);
+        self.ws.current = current;
+        eval
+    }
+
+    /// Replaces the plain next iterate in `self.ws.trial` by the accelerated one, computed from
+    /// it and the iterate `self.ws.current` it came from, and keeps the plain one for
+    /// [`Self::restore_plain`]. Returns whether it did (the first step after a reset has no
+    /// history to combine).
+    fn accelerate(&mut self) -> bool {
+        self.accel_x.clear();
+        self.accel_g.clear();
+        self.plain.clear();
+        for &v in &self.ws.free {
+            let (x, g) = (self.ws.current[v as usize], self.ws.trial[v as usize]);
+            self.accel_x.extend_from_slice(&x);
+            self.accel_g.extend_from_slice(&g);
+            self.plain.push(g);
+        }
+        if !self.anderson.step(&self.accel_x, &mut self.accel_g) {
+            return false;
+        }
+        for (r, &v) in self.ws.free.iter().enumerate() {
+            self.ws.trial[v as usize] = [self.accel_g[2 * r], self.accel_g[2 * r + 1]];
+        }
+        true
+    }
+
+    /// Puts the plain iterate kept by [`Self::accelerate`] back into `self.ws.current`.
+    fn restore_plain(&mut self) {
+        for (r, &v) in self.ws.free.iter().enumerate() {
+            self.ws.current[v as usize] = self.plain[r];
+        }
+    }
+
     /// How many triangles of `uv` are not oriented as expected.
     fn count_wrong(&self, uv: &[[f64; 2]]) -> usize {
         self.tris.iter().filter(|t| orientation(corners(uv, t.v)) != t.expected).count()
@@ -672,13 +729,23 @@ impl LocalSolver for ArapSolver {
         let mut stalled = 0;
         let mut taken = false;
         let mut last_unfold = 0;
+        self.anderson.start(self.params.anderson as usize, 2 * nf);
+        let mut accelerated = false;
         // Each pass evaluates the iterate in `self.ws.current` during its local step (the same
         // Jacobians serve both), decides whether to keep it and whether to stop, and only then
         // runs the global step towards the next iterate.
         loop {
-            let current = std::mem::take(&mut self.ws.current);
-            let eval = self.local_step(&current, &problem.targets);
-            self.ws.current = current;
+            let mut eval = self.evaluate_current(&problem.targets);
+            if std::mem::take(&mut accelerated)
+                && (eval.energy > running || eval.wrong > 0 || !eval.admissible)
+            {
+                // The safeguard of Peng et al.: an accelerated iterate that scores worse than
+                // the iterate it came from, or turns a triangle over, gives way to the plain
+                // step, and the history starts again from there.
+                self.restore_plain();
+                self.anderson.reset();
+                eval = self.evaluate_current(&problem.targets);
+            }
             if report.iterations == 0 {
                 // The start, evaluated like every iterate so that comparisons are like for like.
                 energy = eval.energy;
@@ -719,6 +786,13 @@ impl LocalSolver for ArapSolver {
             self.ws.current = current;
             if !finite {
                 return Err(SolveError::Diverged);
+            }
+            // Acceleration only where the plain steps have nothing left to unfold: on folds its
+            // combinations of past iterates overshoot the steps that turn triangles back.
+            if self.anderson.enabled() && eval.wrong == 0 && eval.admissible {
+                accelerated = self.accelerate();
+            } else {
+                self.anderson.reset();
             }
             std::mem::swap(&mut self.ws.current, &mut self.ws.trial);
         }

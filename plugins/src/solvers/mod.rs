@@ -1,5 +1,6 @@
 //! The built-in local solvers (`LocalSolver` implementations), registered by name.
 
+mod anderson;
 pub mod arap;
 pub mod slim;
 mod workspace;
