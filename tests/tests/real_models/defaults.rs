@@ -34,6 +34,8 @@ const BUDGET: f64 = 0.025;
 
 /// The floors: the reference's figures where we meet them (`../shared/tools/README.md`), else the
 /// figures this suite was last calibrated on (history in `benches/results/`), with the goal named.
+/// A change of the merge's path moves the calibrated figures both ways at once; each
+/// recalibration and what it traded is recorded there.
 /// The goal for the preserved faces' PSNR is 60 dB, which no model meets yet (see
 /// `docs/FIDELITY.md` for why).
 const FLOORS: [Floors; 4] = [
@@ -52,9 +54,9 @@ const FLOORS: [Floors; 4] = [
     // The reference crashes on the plane: every floor is a calibrated figure.
     Floors {
         rel: "sketchfab-plane-meal/scene.gltf",
-        max_charts: 60,
+        max_charts: 61,
         min_solidity: 0.0911,
-        min_preserved_area: 0.248,
+        min_preserved_area: 0.27,
         min_psnr: 46.3,
         // FIXME: goal 60 dB.
         min_preserved_psnr: 48.3,
@@ -69,16 +71,16 @@ const FLOORS: [Floors; 4] = [
         min_preserved_area: 0.605,
         min_psnr: 37.9,
         // FIXME: goal 60 dB.
-        min_preserved_psnr: 44.6,
+        min_preserved_psnr: 44.4,
         min_zero_uv_psnr: 35.0,
         max_new_flips: 0,
     },
     // The reference aborts on the Smithsonian model: every floor is a calibrated figure.
     Floors {
         rel: "smithsonian-usnm1145291/usnm1145291.nodraco.gltf",
-        max_charts: 631,
+        max_charts: 634,
         min_solidity: 0.0317,
-        min_preserved_area: 0.424,
+        min_preserved_area: 0.44,
         min_psnr: 44.3,
         // FIXME: goal 60 dB.
         min_preserved_psnr: 47.3,
