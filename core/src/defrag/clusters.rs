@@ -456,17 +456,7 @@ fn import(master: &mut Engine<'_>, cluster: &[u32], busy: &[bool], results: Vec<
         groups[g].1.push(l);
     }
     for (_, links) in groups {
-        master.ops.push(EngineOp {
-            kind: OpKind::Inter,
-            links,
-            state: OpState::Queued,
-            failures: 0,
-            version: 0,
-            island: false,
-            geom: None,
-            read: None,
-            parked: false,
-        });
+        master.ops.push(EngineOp::new(master.t, OpKind::Inter, links, OpState::Queued));
     }
     for list in &mut master.chart_ops {
         list.clear();

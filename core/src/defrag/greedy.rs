@@ -379,7 +379,8 @@ impl Engine<'_> {
                         self.ops[op as usize].state = OpState::Dead;
                     }
                     let id = self.ops.len() as u32;
-                    self.ops.push(EngineOp::new(OpKind::Inter, links));
+                    let vetoed = OpState::Vetoed(Veto::ZeroArea);
+                    self.ops.push(EngineOp::new(self.t, OpKind::Inter, links, vetoed));
                     list.push(id);
                     self.chart_ops[by_other[i].0.idx()].push(id);
                 }

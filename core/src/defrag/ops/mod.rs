@@ -42,9 +42,8 @@ impl Engine<'_> {
     /// The current charts of an operation's sides (from its first linked pair: charts only ever
     /// merge whole, so every pair of an operation separates the same two charts).
     pub fn op_charts(&self, op: u32) -> (ChartId, ChartId) {
-        let l = self.ops[op as usize].links[0];
-        let [h0, h1] = self.t.links[l.idx()].sides;
-        (self.t.face_chart[h0.face()], self.t.face_chart[h1.face()])
+        let [f0, f1] = self.ops[op as usize].sides;
+        (self.t.face_chart[f0 as usize], self.t.face_chart[f1 as usize])
     }
 
     /// The charts of `op` as (the chart that stays, the chart that moves): the one with more faces

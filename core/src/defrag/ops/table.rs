@@ -27,6 +27,11 @@ pub(crate) enum OpState {
 pub(crate) struct EngineOp {
     pub kind: OpKind,
     pub links: Vec<LinkId>,
+    /// The faces on the two sides of its first link, whose charts are the operation's (see
+    /// `Engine::op_charts`): the settling after each commit asks for the charts of every operation
+    /// of the merged chart and its neighbours, and going through the link table for each cost a
+    /// chain of cache misses.
+    pub sides: [u32; 2],
     pub state: OpState,
     /// How many times it was attempted and rolled back (the back-off exponent k).
     pub failures: u32,
@@ -57,12 +62,14 @@ pub(crate) struct CachedGeometry {
 }
 
 impl EngineOp {
-    /// A new operation dissolving `links`, vetoed until its first scoring.
-    pub fn new(kind: OpKind, links: Vec<LinkId>) -> Self {
+    /// A new operation dissolving `links` (at least one) of `t`, vetoed until its first scoring.
+    pub fn new(t: &Topology, kind: OpKind, links: Vec<LinkId>, state: OpState) -> Self {
+        let [h0, h1] = t.links[links[0].idx()].sides;
         Self {
             kind,
             links,
-            state: OpState::Vetoed(Veto::ZeroArea),
+            sides: [h0.face() as u32, h1.face() as u32],
+            state,
             failures: 0,
             version: 0,
             island: false,
@@ -91,7 +98,7 @@ pub(crate) fn initial_ops(t: &Topology) -> (Vec<EngineOp>, Vec<Vec<u32>>) {
         if o.charts[1] != o.charts[0] {
             chart_ops[o.charts[1].idx()].push(id);
         }
-        ops.push(EngineOp::new(o.kind, links));
+        ops.push(EngineOp::new(t, o.kind, links, OpState::Vetoed(Veto::ZeroArea)));
     }
     (ops, chart_ops)
 }
