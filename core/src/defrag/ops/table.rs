@@ -62,7 +62,8 @@ pub(crate) struct CachedGeometry {
 }
 
 impl EngineOp {
-    /// A new operation dissolving `links` (at least one) of `t`, vetoed until its first scoring.
+    /// A new operation dissolving `links` (at least one) of `t`, in `state` (vetoed until its first
+    /// scoring, for a new one).
     pub fn new(t: &Topology, kind: OpKind, links: Vec<LinkId>, state: OpState) -> Self {
         let [h0, h1] = t.links[links[0].idx()].sides;
         Self {
