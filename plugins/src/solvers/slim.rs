@@ -19,10 +19,9 @@
 //! energy, `geometry::EnergySum`), and the iterate returned is the best one by that energy, so the
 //! engine's d and g checks mean the same with either solver.
 
-use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::dyn_stack::{MemStack, StackReq};
 use faer::sparse::linalg::cholesky::{LltRef, SymbolicCholesky};
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Conj, MatMut, Par, Side};
+use faer::{Conj, MatMut, Par};
 use scanatlas_core::geometry::{
     Mat2, mean_isometric_energy, orientation, signed_area2, svd2_signed,
 };
@@ -470,21 +469,6 @@ impl SlimSolver {
         }
     }
 
-    fn reserve(&mut self, req: StackReq) -> Result<(), SolveError> {
-        let fits = match self.ws.mem.as_mut() {
-            Some(buf) => MemStack::new(buf).can_hold(req),
-            None => false,
-        };
-        if !fits {
-            self.ws.mem = None;
-            let buf = MemBuffer::try_new(req).map_err(|_| {
-                SolveError::Factorization("out of memory for the work space".into())
-            })?;
-            self.ws.mem = Some(buf);
-        }
-        Ok(())
-    }
-
     /// Numeric factorization and solve of the assembled system; the solution replaces `rhs`.
     fn factorize_and_solve(
         &mut self,
@@ -495,26 +479,11 @@ impl SlimSolver {
             symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
             symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
         ]);
-        self.reserve(req)?;
-        self.ws.l_values.clear();
-        self.ws.l_values.resize(symbolic.len_val(), 0.0);
+        self.ws.start_factor(symbolic, req)?;
+        self.ws.factorize_numeric(symbolic, n2, false)?;
         let Some(buf) = self.ws.mem.as_mut() else {
             return Err(SolveError::Factorization("no work space".into()));
         };
-        let pattern =
-            SymbolicSparseColMatRef::new_checked(n2, n2, &self.ws.col_ptr, None, &self.ws.row_idx);
-        let a = SparseColMatRef::new(pattern, &self.ws.values);
-        symbolic
-            .factorize_numeric_llt(
-                &mut self.ws.l_values,
-                a,
-                Side::Upper,
-                Default::default(),
-                Par::Seq,
-                MemStack::new(buf),
-                Default::default(),
-            )
-            .map_err(|e| SolveError::Factorization(format!("{e:?}")))?;
         let x = MatMut::from_column_major_slice_mut(&mut self.ws.rhs, n2, 1);
         LltRef::new(symbolic, &self.ws.l_values).solve_in_place_with_conj(
             Conj::No,

@@ -2,7 +2,10 @@
 //! of the free vertices, the reduced system in compressed-column form, its factor values, the
 //! right-hand side, the iterates and faer's work space.
 
-use faer::dyn_stack::MemBuffer;
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::sparse::linalg::cholesky::SymbolicCholesky;
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Par, Side};
 use scanatlas_core::plugin::{LocalProblem, SolveError};
 
 use scanatlas_core::index::NONE;
@@ -34,6 +37,80 @@ pub(super) struct Workspace {
 }
 
 impl Workspace {
+    /// Makes sure faer's work space can hold `req`.
+    pub(super) fn reserve(&mut self, req: StackReq) -> Result<(), SolveError> {
+        let fits = match self.mem.as_mut() {
+            Some(buf) => MemStack::new(buf).can_hold(req),
+            None => false,
+        };
+        if !fits {
+            self.mem = None;
+            let buf = MemBuffer::try_new(req).map_err(|_| {
+                SolveError::Factorization("out of memory for the work space".into())
+            })?;
+            self.mem = Some(buf);
+        }
+        Ok(())
+    }
+
+    /// Makes the work space hold `req` and the factor values `symbolic`'s, before a numeric
+    /// factorization.
+    pub(super) fn start_factor(
+        &mut self,
+        symbolic: &SymbolicCholesky<usize>,
+        req: StackReq,
+    ) -> Result<(), SolveError> {
+        self.reserve(req)?;
+        self.l_values.clear();
+        self.l_values.resize(symbolic.len_val(), 0.0);
+        Ok(())
+    }
+
+    /// The numeric LLT (LDLT with `ldlt`) of the assembled `n × n` upper triangle into
+    /// `l_values`, in the work space of [`Self::start_factor`].
+    pub(super) fn factorize_numeric(
+        &mut self,
+        symbolic: &SymbolicCholesky<usize>,
+        n: usize,
+        ldlt: bool,
+    ) -> Result<(), SolveError> {
+        let Some(buf) = self.mem.as_mut() else {
+            return Err(SolveError::Factorization("no work space".into()));
+        };
+        let pattern =
+            SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
+        let a = SparseColMatRef::new(pattern, &self.values);
+        let stack = MemStack::new(buf);
+        let done = if ldlt {
+            symbolic
+                .factorize_numeric_ldlt(
+                    &mut self.l_values,
+                    a,
+                    Side::Upper,
+                    Default::default(),
+                    Par::Seq,
+                    stack,
+                    Default::default(),
+                )
+                .map(|_| ())
+                .map_err(|e| format!("{e:?}"))
+        } else {
+            symbolic
+                .factorize_numeric_llt(
+                    &mut self.l_values,
+                    a,
+                    Side::Upper,
+                    Default::default(),
+                    Par::Seq,
+                    stack,
+                    Default::default(),
+                )
+                .map(|_| ())
+                .map_err(|e| format!("{e:?}"))
+        };
+        done.map_err(SolveError::Factorization)
+    }
+
     /// Marks the free vertices that some triangle uses, numbers them in order (`row_of`, `free`),
     /// and checks that every connected part of them reaches a fixed vertex: a part with none has no
     /// preferred position and its system is singular. Shared by every solver of this crate.

@@ -2,10 +2,9 @@
 //! vertices, the assembly of the cotangent weights, the Cholesky factorization and the global step
 //! that solves it for the next iterate.
 
-use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::dyn_stack::{MemStack, StackReq};
 use faer::sparse::linalg::cholesky::{LdltRef, LltRef, SymbolicCholesky};
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Conj, MatMut, Par, Side};
+use faer::{Conj, MatMut, Par};
 use scanatlas_core::plugin::SolveError;
 
 use super::{ArapSolver, Factor, NONE, TriData};
@@ -121,22 +120,6 @@ impl ArapSolver {
         }
     }
 
-    /// Makes sure faer's work space can hold `req`.
-    fn reserve(&mut self, req: StackReq) -> Result<(), SolveError> {
-        let fits = match self.ws.mem.as_mut() {
-            Some(buf) => MemStack::new(buf).can_hold(req),
-            None => false,
-        };
-        if !fits {
-            self.ws.mem = None;
-            let buf = MemBuffer::try_new(req).map_err(|_| {
-                SolveError::Factorization("out of memory for the work space".into())
-            })?;
-            self.ws.mem = Some(buf);
-        }
-        Ok(())
-    }
-
     /// Numeric factorization: LLT, then LDLT, then LLT with a tiny diagonal shift.
     pub(super) fn factorize(
         &mut self,
@@ -148,36 +131,11 @@ impl ArapSolver {
             symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default()),
             symbolic.solve_in_place_scratch::<f64>(2, Par::Seq),
         ]);
-        self.reserve(req)?;
-        self.ws.l_values.clear();
-        self.ws.l_values.resize(symbolic.len_val(), 0.0);
-        let Some(buf) = self.ws.mem.as_mut() else {
-            return Err(SolveError::Factorization("no work space".into()));
-        };
-        let pattern =
-            SymbolicSparseColMatRef::new_checked(nf, nf, &self.ws.col_ptr, None, &self.ws.row_idx);
-        let a = SparseColMatRef::new(pattern, &self.ws.values);
-        let llt = symbolic.factorize_numeric_llt(
-            &mut self.ws.l_values,
-            a,
-            Side::Upper,
-            Default::default(),
-            Par::Seq,
-            MemStack::new(buf),
-            Default::default(),
-        );
-        if llt.is_ok() {
+        self.ws.start_factor(symbolic, req)?;
+        if self.ws.factorize_numeric(symbolic, nf, false).is_ok() {
             return Ok(Factor::Llt);
         }
-        let ldlt = symbolic.factorize_numeric_ldlt(
-            &mut self.ws.l_values,
-            a,
-            Side::Upper,
-            Default::default(),
-            Par::Seq,
-            MemStack::new(buf),
-            Default::default(),
-        );
+        let ldlt = self.ws.factorize_numeric(symbolic, nf, true);
         if ldlt.is_ok() && self.ws.l_values.iter().all(|x| x.is_finite()) {
             return Ok(Factor::Ldlt);
         }
@@ -189,19 +147,7 @@ impl ArapSolver {
         for c in 0..nf {
             self.ws.values[self.ws.col_ptr[c + 1] - 1] += shift;
         }
-        let a = SparseColMatRef::new(pattern, &self.ws.values);
-        symbolic
-            .factorize_numeric_llt(
-                &mut self.ws.l_values,
-                a,
-                Side::Upper,
-                Default::default(),
-                Par::Seq,
-                MemStack::new(buf),
-                Default::default(),
-            )
-            .map(|_| Factor::Llt)
-            .map_err(|e| SolveError::Factorization(format!("{e:?}")))
+        self.ws.factorize_numeric(symbolic, nf, false).map(|()| Factor::Llt)
     }
 
     /// The global step after [`Self::local_step`]: solves for the free vertices and writes the
