@@ -57,6 +57,12 @@ impl Anderson {
         self.next = 0;
     }
 
+    /// The plain next iterate `G(x)` of the last step, as it was before the acceleration: what a
+    /// caller falls back to when the accelerated one fails its safeguard.
+    pub(super) fn plain(&self) -> &[f64] {
+        &self.g_last
+    }
+
     /// Whether acceleration is on.
     pub(super) fn enabled(&self) -> bool {
         self.depth > 0
@@ -70,16 +76,19 @@ impl Anderson {
         if self.depth == 0 {
             return false;
         }
-        let dim = self.dim;
-        if self.have_last {
-            let slot = self.next;
-            let (dg, df) =
-                (&mut self.dg[slot * dim..(slot + 1) * dim], &mut self.df[slot * dim..][..dim]);
-            for i in 0..dim {
-                let f = g[i] - x[i];
-                dg[i] = g[i] - self.g_last[i];
-                df[i] = f - self.f_last[i];
+        let (dim, slot, have_last) = (self.dim, self.next, self.have_last);
+        // One pass: the residual, the differences from the last step (once there is one), and
+        // this step's values kept for the next.
+        for i in 0..dim {
+            let f = g[i] - x[i];
+            if have_last {
+                self.dg[slot * dim + i] = g[i] - self.g_last[i];
+                self.df[slot * dim + i] = f - self.f_last[i];
             }
+            self.f_last[i] = f;
+            self.g_last[i] = g[i];
+        }
+        if have_last {
             self.stored = (self.stored + 1).min(self.depth);
             self.next = (slot + 1) % self.depth;
             for j in 0..self.stored {
@@ -88,10 +97,6 @@ impl Anderson {
                 self.gram[j * self.depth + slot] = d;
             }
         }
-        for i in 0..dim {
-            self.f_last[i] = g[i] - x[i];
-        }
-        self.g_last.copy_from_slice(g);
         self.have_last = true;
         if self.stored == 0 {
             return false;

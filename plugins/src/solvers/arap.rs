@@ -215,8 +215,6 @@ pub struct ArapSolver {
     anderson: Anderson,
     accel_x: Vec<f64>,
     accel_g: Vec<f64>,
-    /// The plain next iterate's free vertices while an accelerated one is on trial.
-    plain: Vec<[f64; 2]>,
 }
 
 impl std::fmt::Debug for ArapSolver {
@@ -417,18 +415,16 @@ impl ArapSolver {
     }
 
     /// Replaces the plain next iterate in `self.ws.trial` by the accelerated one, computed from
-    /// it and the iterate `self.ws.current` it came from, and keeps the plain one for
-    /// [`Self::restore_plain`]. Returns whether it did (the first step after a reset has no
+    /// it and the iterate `self.ws.current` it came from (the history keeps the plain one for
+    /// [`Self::restore_plain`]). Returns whether it did (the first step after a reset has no
     /// history to combine).
     fn accelerate(&mut self) -> bool {
         self.accel_x.clear();
         self.accel_g.clear();
-        self.plain.clear();
         for &v in &self.ws.free {
             let (x, g) = (self.ws.current[v as usize], self.ws.trial[v as usize]);
             self.accel_x.extend_from_slice(&x);
             self.accel_g.extend_from_slice(&g);
-            self.plain.push(g);
         }
         if !self.anderson.step(&self.accel_x, &mut self.accel_g) {
             return false;
@@ -439,10 +435,11 @@ impl ArapSolver {
         true
     }
 
-    /// Puts the plain iterate kept by [`Self::accelerate`] back into `self.ws.current`.
+    /// Puts the plain iterate of the last [`Self::accelerate`] back into `self.ws.current`.
     fn restore_plain(&mut self) {
+        let plain = self.anderson.plain();
         for (r, &v) in self.ws.free.iter().enumerate() {
-            self.ws.current[v as usize] = self.plain[r];
+            self.ws.current[v as usize] = [plain[2 * r], plain[2 * r + 1]];
         }
     }
 
